@@ -1,0 +1,1 @@
+"""Episode storage: robomimic's HDF5 layout."""

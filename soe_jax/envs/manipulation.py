@@ -1,0 +1,186 @@
+"""The shared single-arm manipulation environment: a brax `Env` over either physics backend.
+
+A task subclasses `ManipulationEnv` and supplies its scene (`_scene_mjcf`), its start-state
+distribution (`_sample_objects`), its `object` observation (`_object_obs`) and its success check
+(`_success`). Everything here is pure JAX; only the substep loop differs between backends.
+
+Observations (`state.obs`, a dict with robomimic's key names):
+  robot0_eef_pos (3)       grip-site position, world frame
+  robot0_eef_quat (4)      right_hand body orientation, xyzw
+  robot0_gripper_qpos (2)  finger slide positions (open ~ (0.04, -0.04))
+  object (Lift 10, Can 14, Square 14)
+and extras for experts and metrics: robot0_joint_pos (7), robot0_eef_rot (9, grip-site rotation
+matrix, row-major). The policy sees `POLICY_OBS_KEYS` concatenated in that order.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import ml_collections
+import mujoco
+import numpy as np
+from brax.envs.base import Env, State
+
+from soe_jax.envs import controller, panda, physics, rotations
+
+POLICY_OBS_KEYS = ("robot0_eef_pos", "robot0_eef_quat", "robot0_gripper_qpos", "object")
+CONTROL_DT = 0.05  # 20 Hz
+PHYSICS_DT = 0.002
+AGENTVIEW = dict(pos="0.5 0 1.35", quat="0.653 0.271 0.271 0.653")
+
+
+def base_config() -> ml_collections.ConfigDict:
+  """Fields every task shares; task modules extend it in their `default_config()`."""
+  return ml_collections.ConfigDict(dict(
+      backend="auto",  # auto | mujoco | mjx
+      action_mode="absolute",  # absolute (10-d) | delta (7-d)
+      nsubsteps=25,  # physics substeps per 20 Hz control step
+      horizon=400,  # robomimic's evaluation horizon for lift / can / square
+  ))
+
+
+def policy_obs(obs: dict) -> jax.Array:
+  """The policy's observation vector: the four low-dim keys concatenated, (..., 19 or 23)."""
+  return jnp.concatenate([obs[k] for k in POLICY_OBS_KEYS], axis=-1)
+
+
+class ManipulationEnv(Env):
+  """Panda arm + task scene, 20 Hz absolute end-effector pose control, sparse success reward."""
+
+  name: str = ""
+  base_pos: tuple = (-0.56, 0.0, 0.912)
+  object_dim: int = 0
+  agentview: dict = AGENTVIEW
+
+  def __init__(self, config: ml_collections.ConfigDict | None = None):
+    self.config = config if config is not None else self.default_config()
+    self.action_mode = self.config.action_mode
+    self._action_size = controller.action_size(self.action_mode)
+    self.mj_model = mujoco.MjModel.from_xml_string(self.mjcf())
+    self.kin = panda.Kinematics(self.base_pos)
+    self.physics = physics.make_backend(self.config.backend, self.mj_model, self.config.nsubsteps)
+    self.horizon = int(self.config.horizon)
+
+  @classmethod
+  def default_config(cls) -> ml_collections.ConfigDict:
+    return base_config()
+
+  # -- task hooks -----------------------------------------------------------------------------
+  def _scene_mjcf(self) -> str:
+    raise NotImplementedError
+
+  def _sample_objects(self, key: jax.Array) -> jax.Array:
+    """Object qpos (free joints) at reset, (nq - 9,)."""
+    raise NotImplementedError
+
+  def _object_obs(self, qpos: jax.Array, eef_pos: jax.Array, hand_rot: jax.Array) -> jax.Array:
+    raise NotImplementedError
+
+  def _success(self, qpos: jax.Array, eef_pos: jax.Array) -> jax.Array:
+    raise NotImplementedError
+
+  # -- model ----------------------------------------------------------------------------------
+  def mjcf(self) -> str:
+    cam = self.agentview
+    return f"""<mujoco model="{self.name}">
+  <compiler angle="radian" autolimits="true"/>
+  <option timestep="{PHYSICS_DT}" integrator="implicitfast" cone="elliptic" impratio="20"/>
+  <visual><global offwidth="640" offheight="480"/><quality shadowsize="0"/></visual>
+  <worldbody>
+    <light pos="0 0 3" dir="0 0 -1" directional="true"/>
+    <geom name="floor" type="plane" size="3 3 0.1" {panda.FIXTURE_COLLISION} rgba="0.6 0.6 0.6 1"/>
+    <camera name="agentview" pos="{cam['pos']}" quat="{cam['quat']}" fovy="45"/>
+    {panda.robot_mjcf(self.base_pos)}
+    {self._scene_mjcf()}
+  </worldbody>
+  <contact><exclude body1="finger1" body2="finger2"/></contact>
+  <actuator>{panda.robot_actuators_mjcf()}</actuator>
+</mujoco>"""
+
+  @property
+  def observation_size(self) -> int:
+    return 9 + self.object_dim
+
+  @property
+  def action_size(self) -> int:
+    return self._action_size
+
+  @property
+  def backend(self) -> str:
+    """The physics backend actually used: `mujoco` or `mjx`."""
+    return self.physics.name
+
+  # -- brax Env -------------------------------------------------------------------------------
+  def sample_qpos(self, rng: jax.Array) -> jax.Array:
+    """The start state's joint positions (nq,), a pure function of the key."""
+    key_arm, key_obj = jax.random.split(rng)
+    arm = jnp.asarray(panda.INIT_QPOS) + panda.INIT_NOISE * jax.random.normal(key_arm, (7,))
+    fingers = jnp.array([panda.FINGER_INIT, -panda.FINGER_INIT])
+    return jnp.concatenate([arm, fingers, self._sample_objects(key_obj)]).astype(jnp.float32)
+
+  def reset(self, rng: jax.Array) -> State:
+    qpos = self.sample_qpos(rng)
+    ps = self.physics.init(qpos, jnp.zeros(self.mj_model.nv, jnp.float32))
+    obs, success = self._observe(ps)
+    zero = jnp.zeros(())
+    return State(pipeline_state=ps, obs=obs, reward=zero, done=zero, metrics={"success": success},
+                 info={"rng": rng})
+
+  def step(self, state: State, action: jax.Array) -> State:
+    if action.shape != (self.action_size,):
+      raise ValueError(f"{self.name}: expected an action of shape ({self.action_size},) for action mode "
+                       f"{self.action_mode!r}, got {tuple(action.shape)}")
+    ps = state.pipeline_state
+    ctrl = controller.joint_controls(self.kin, self.action_mode, action, ps.qpos[:7])
+    ps = self.physics.step(ps, ctrl)
+    obs, success = self._observe(ps)
+    reward = self._get_reward(success)
+    return state.replace(pipeline_state=ps, obs=obs, reward=reward, done=success, metrics={"success": success})
+
+  def _get_reward(self, success: jax.Array) -> jax.Array:
+    """Sparse, as robomimic evaluates: 1 on success."""
+    return success
+
+  def _observe(self, ps: physics.PhysicsState):
+    qpos = ps.qpos
+    fk = self.kin.forward(qpos[:7])
+    hand_quat = rotations.wxyz_to_xyzw(rotations.mat_to_quat_wxyz(fk["hand_rot"]))
+    obs = {
+        "robot0_eef_pos": fk["site_pos"],
+        "robot0_eef_quat": hand_quat,
+        "robot0_gripper_qpos": qpos[7:9],
+        "object": self._object_obs(qpos, fk["site_pos"], fk["hand_rot"]),
+        "robot0_joint_pos": qpos[:7],
+        "robot0_eef_rot": fk["site_rot"].reshape(9),
+    }
+    return obs, self._success(qpos, fk["site_pos"]).astype(jnp.float32)
+
+
+# -- helpers shared by the task modules ---------------------------------------------------------
+def free_body_pose(qpos: jax.Array, start: int):
+  """(pos (3,), quat wxyz (4,)) of a free joint whose qpos starts at `start`."""
+  return qpos[start:start + 3], qpos[start + 3:start + 7]
+
+
+def pose_in_eef(obj_pos, obj_quat_wxyz, eef_pos, hand_rot):
+  """Object pose in the eef frame (eef position, right_hand orientation): robosuite's obj_to_eef."""
+  r_obj = rotations.quat_wxyz_to_mat(obj_quat_wxyz)
+  rel_pos = hand_rot.T @ (obj_pos - eef_pos)
+  rel_quat = rotations.mat_to_quat_wxyz(hand_rot.T @ r_obj)
+  return rel_pos, rotations.wxyz_to_xyzw(rel_quat)
+
+
+def canonical_quat_xyzw(q_wxyz):
+  """wxyz (sign as stored) -> xyzw, with w >= 0 so equal rotations give equal observations."""
+  q = q_wxyz * jnp.where(q_wxyz[0] < 0, -1.0, 1.0)
+  return rotations.wxyz_to_xyzw(q)
+
+
+def yaw_free_qpos(pos, yaw) -> jax.Array:
+  """Free-joint qpos (7,) for a body at `pos`, rotated by `yaw` about world z."""
+  return jnp.concatenate([jnp.asarray(pos, jnp.float32), rotations.yaw_quat_wxyz(yaw)])
+
+
+def np_fmt(v) -> str:
+  return " ".join(f"{float(x):.6g}" for x in np.ravel(v))

@@ -1,0 +1,152 @@
+"""Two physics backends behind one interface: `mjx` (accelerators) and `mujoco` (CPU, C engine).
+
+A backend turns joint-space controls into the next physics state over `nsubsteps` substeps with the
+control held constant. Everything around it (reset sampling, IK, observations, success) is shared JAX
+code, so the same task runs on either.
+
+- `MjxBackend`: the substeps are a `lax.scan` of `mjx.step`; the state is an `mjx.Data` (float32).
+- `MujocoBackend`: the whole batch's substeps run in MuJoCo's C engine, multi-threaded through
+  `mujoco.rollout`, reached from the compiled program through `jax.pure_callback`. MuJoCo's full
+  physics state is float64; it is carried through JAX bit-exactly as a uint32 view of its bytes, so
+  states stay ordinary pytrees (auto-reset with `where`, checkpoints, determinism) without x64.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+from flax import struct
+
+BACKENDS = ("auto", "mujoco", "mjx")
+
+
+@struct.dataclass
+class PhysicsState:
+  """What the shared JAX code reads (float32 qpos, qvel) plus the backend's own state in `raw`."""
+  qpos: jax.Array  # (nq,)
+  qvel: jax.Array  # (nv,)
+  raw: object  # mjx.Data, or (2 * nstate,) uint32 bytes of MuJoCo's float64 full physics state
+
+
+def resolve_backend(name: str) -> str:
+  """`auto` is `mujoco` on CPU and `mjx` on GPU/TPU."""
+  if name not in BACKENDS:
+    raise ValueError(f"unknown physics backend {name!r}; known: {', '.join(BACKENDS)}")
+  if name == "auto":
+    return "mujoco" if jax.default_backend() == "cpu" else "mjx"
+  return name
+
+
+def make_backend(name: str, model: mujoco.MjModel, nsubsteps: int):
+  name = resolve_backend(name)
+  return MujocoBackend(model, nsubsteps) if name == "mujoco" else MjxBackend(model, nsubsteps)
+
+
+class MjxBackend:
+  """Substeps as a `lax.scan` of `mjx.step`, vmappable and differentiable."""
+
+  name = "mjx"
+
+  def __init__(self, model: mujoco.MjModel, nsubsteps: int):
+    from mujoco import mjx  # imported lazily: it is heavy and only this backend needs it
+    self._mjx = mjx
+    self.model = model
+    self.nsubsteps = nsubsteps
+    self.mjx_model = mjx.put_model(model)
+
+  def init(self, qpos: jax.Array, qvel: jax.Array) -> PhysicsState:
+    d = self._mjx.make_data(self.mjx_model).replace(qpos=qpos, qvel=qvel)
+    d = self._mjx.forward(self.mjx_model, d)
+    return PhysicsState(qpos=d.qpos, qvel=d.qvel, raw=d)
+
+  def step(self, state: PhysicsState, ctrl: jax.Array) -> PhysicsState:
+    d = state.raw.replace(ctrl=ctrl)
+
+    def substep(d, _):
+      return self._mjx.step(self.mjx_model, d), None
+
+    d, _ = jax.lax.scan(substep, d, None, length=self.nsubsteps)
+    return PhysicsState(qpos=d.qpos, qvel=d.qvel, raw=d)
+
+
+class MujocoBackend:
+  """The C engine, batched and multi-threaded with `mujoco.rollout`, behind `jax.pure_callback`."""
+
+  name = "mujoco"
+
+  def __init__(self, model: mujoco.MjModel, nsubsteps: int, nthread: int | None = None):
+    from mujoco import rollout
+    self.model = model
+    self.nsubsteps = nsubsteps
+    self.nthread = nthread or os.cpu_count() or 1
+    self.spec = mujoco.mjtState.mjSTATE_FULLPHYSICS.value
+    self.nstate = mujoco.mj_stateSize(model, self.spec)
+    self._datas = [mujoco.MjData(model) for _ in range(self.nthread)]
+    self._rollout = rollout.Rollout(nthread=self.nthread)
+    self._lock = threading.Lock()  # one rollout at a time: the thread pool and datas are shared
+    template = np.empty(self.nstate, np.float64)
+    mujoco.mj_getState(model, mujoco.MjData(model), template, self.spec)
+    self._template = template
+    # mjSTATE_FULLPHYSICS starts with time, then qpos, then qvel.
+    self._qpos = slice(1, 1 + model.nq)
+    self._qvel = slice(1 + model.nq, 1 + model.nq + model.nv)
+    self.physics_seconds = 0.0  # time spent inside the C engine, for benchmarks
+    self.callback_seconds = 0.0  # time spent inside the step callback, conversion included
+
+  # -- host side ------------------------------------------------------------------------------
+  def _host_init(self, qpos, qvel):
+    qpos, qvel = np.asarray(qpos), np.asarray(qvel)
+    batch = qpos.shape[:-1]
+    s = np.broadcast_to(self._template, batch + (self.nstate,)).copy()
+    s[..., self._qpos] = qpos
+    s[..., self._qvel] = qvel
+    return s.view(np.uint32)
+
+  def _host_step(self, bits, ctrl):
+    t0 = time.perf_counter()
+    bits, ctrl = np.asarray(bits), np.asarray(ctrl)
+    batch = bits.shape[:-1]
+    s0 = np.ascontiguousarray(bits.reshape(-1, 2 * self.nstate)).view(np.float64)
+    n = s0.shape[0]
+    u = np.repeat(ctrl.reshape(n, 1, -1).astype(np.float64), self.nsubsteps, axis=1)
+    out = np.empty((n, self.nsubsteps, self.nstate), np.float64)
+    warm = np.zeros((n, self.model.nv), np.float64)  # a fixed warm start keeps results thread-independent
+    t1 = time.perf_counter()
+    with self._lock:
+      self._rollout.rollout([self.model] * n, self._datas, s0, u, initial_warmstart=warm, state=out,
+                            nstep=self.nsubsteps, skip_checks=True, sensordata=np.empty((n, self.nsubsteps, 0)),
+                            chunk_size=max(1, n // (4 * self.nthread)))
+    t2 = time.perf_counter()
+    s1 = np.ascontiguousarray(out[:, -1])
+    result = (s1.view(np.uint32).reshape(batch + (2 * self.nstate,)),
+              s1[:, self._qpos].astype(np.float32).reshape(batch + (self.model.nq,)),
+              s1[:, self._qvel].astype(np.float32).reshape(batch + (self.model.nv,)))
+    self.physics_seconds += t2 - t1
+    self.callback_seconds += time.perf_counter() - t0
+    return result
+
+  # -- traced side ----------------------------------------------------------------------------
+  def init(self, qpos: jax.Array, qvel: jax.Array) -> PhysicsState:
+    shape = jax.ShapeDtypeStruct(qpos.shape[:-1] + (2 * self.nstate,), jnp.uint32)
+    bits = jax.pure_callback(self._host_init, shape, qpos, qvel, vmap_method="broadcast_all")
+    return PhysicsState(qpos=qpos, qvel=qvel, raw=bits)
+
+  def step(self, state: PhysicsState, ctrl: jax.Array) -> PhysicsState:
+    batch = state.raw.shape[:-1]
+    shapes = (jax.ShapeDtypeStruct(batch + (2 * self.nstate,), jnp.uint32),
+              jax.ShapeDtypeStruct(batch + (self.model.nq,), jnp.float32),
+              jax.ShapeDtypeStruct(batch + (self.model.nv,), jnp.float32))
+    bits, qpos, qvel = jax.pure_callback(self._host_step, shapes, state.raw, ctrl.astype(jnp.float32),
+                                         vmap_method="broadcast_all")
+    return PhysicsState(qpos=qpos, qvel=qvel, raw=bits)
+
+  def float64_state(self, state: PhysicsState) -> np.ndarray:
+    """The exact MuJoCo state on the host, (..., nstate) float64."""
+    bits = np.ascontiguousarray(jax.device_get(state.raw))
+    return bits.view(np.float64)

@@ -1,0 +1,86 @@
+"""Run a batch of scripted demonstrations: compiled chunks of control steps, Python between chunks."""
+
+from __future__ import annotations
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import tqdm
+
+from soe_jax.envs import manipulation
+from soe_jax.experts import script
+
+RECORDED_KEYS = manipulation.POLICY_OBS_KEYS + ("robot0_joint_pos",)
+
+
+def _chunk_fn(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, length: int):
+  step = jax.vmap(env.step)
+  act = jax.vmap(expert.act)
+
+  @jax.jit
+  def run(carry):
+    def body(carry, _):
+      state, es, done, ep_len = carry
+      action, es = act(es, state.obs)
+      nxt = step(state, action)
+      success = nxt.metrics["success"] > 0
+      record = ({k: state.obs[k] for k in RECORDED_KEYS}, action, done, state.pipeline_state.qpos)
+      ep_len = jnp.where(done, ep_len, ep_len + 1)
+      return (nxt, es, done | success, ep_len), record
+
+    return jax.lax.scan(body, carry, None, length=length)
+
+  return run
+
+
+@functools.lru_cache(maxsize=8)
+def _cached_chunk_fn(env, expert, length):
+  return _chunk_fn(env, expert, length)
+
+
+def run_demos(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, keys: jax.Array,
+              chunk: int = 50, progress: bool = True) -> dict:
+  """Demonstrations from the start states of `keys` (N, 2), each until success or the horizon.
+
+  Returns numpy arrays: `obs` {key: (N, T, d)}, `actions` (N, T, 10), `states` (N, T, nq) scene joint
+  positions, `length` (N,) actions taken up
+  to and including the successful step (the horizon if none), `success` (N,). Steps after an
+  episode's end are padding.
+  """
+  keys = jnp.asarray(keys)
+  key_env, key_expert = keys, jax.vmap(lambda k: jax.random.fold_in(k, 1))(keys)
+  state = jax.jit(jax.vmap(env.reset))(key_env)
+  es = jax.jit(jax.vmap(expert.init))(state.obs, key_expert)
+  n = keys.shape[0]
+  carry = (state, es, jnp.zeros(n, bool), jnp.zeros(n, jnp.int32))
+  run = _cached_chunk_fn(env, expert, chunk)
+  records = []
+  num_chunks = -(-env.horizon // chunk)
+  bar = tqdm.tqdm(total=num_chunks * chunk, desc=f"{env.name} demos", unit="step", disable=not progress, leave=False)
+  for _ in range(num_chunks):
+    carry, rec = run(carry)
+    records.append(jax.device_get(rec))
+    bar.update(chunk)
+    if bool(jax.device_get(carry[2]).all()):
+      break
+  bar.close()
+  obs = {k: np.concatenate([r[0][k] for r in records], 0).swapaxes(0, 1)[:, :env.horizon] for k in RECORDED_KEYS}
+  actions = np.concatenate([r[1] for r in records], 0).swapaxes(0, 1)[:, :env.horizon]
+  states = np.concatenate([r[3] for r in records], 0).swapaxes(0, 1)[:, :env.horizon]
+  done, length = jax.device_get(carry[2:])
+  return dict(obs=obs, actions=actions, states=states, length=np.minimum(length, env.horizon),
+              success=np.asarray(done))
+
+
+def split_episodes(batch: dict, only_successful: bool = True) -> list[dict]:
+  """The batch from `run_demos` -> a list of episodes trimmed to their lengths."""
+  episodes = []
+  for i in range(batch["length"].shape[0]):
+    if only_successful and not batch["success"][i]:
+      continue
+    t = int(batch["length"][i])
+    episodes.append(dict(obs={k: v[i, :t] for k, v in batch["obs"].items()}, actions=batch["actions"][i, :t],
+                         states=batch["states"][i, :t], success=bool(batch["success"][i])))
+  return episodes

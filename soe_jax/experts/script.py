@@ -1,0 +1,131 @@
+"""A waypoint-script demonstrator in pure JAX (vmappable, jittable).
+
+A task's expert is a list of phases. When a phase starts, its plan function reads the observation and
+the episode's random parameters and returns a target: grip-site position, yaw of a top-down grasp
+frame, gripper command, speed, and how long to hold. The commanded pose moves from where the previous
+phase left it to the target along a minimum-jerk profile, so motion is smooth; the phase ends once
+the end effector has arrived (or a timeout passes). Per-episode randomness (speed, heights, offsets,
+waiting times) and a small smooth (AR(1)) positional noise give human-like variety.
+
+The action is the 10-d absolute pose: position, rotation-6d of the top-down frame at the commanded
+yaw, gripper.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Callable, NamedTuple, Sequence
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from soe_jax.envs import rotations
+
+TIMEOUT = 30  # steps a phase may wait beyond its schedule for the arm to arrive
+
+
+class Target(NamedTuple):
+  pos: jax.Array  # (3,) grip-site position
+  yaw: jax.Array  # () yaw of the grasp frame's closing axis
+  grip: jax.Array  # () -1 open .. +1 closed
+  speed: jax.Array  # () m per control step along the path
+  hold: jax.Array  # () int, steps to wait after arriving on schedule
+  tol: jax.Array  # () m, arrival tolerance of the measured end effector
+
+
+@struct.dataclass
+class ExpertState:
+  phase: jax.Array
+  t: jax.Array
+  start_pos: jax.Array
+  start_yaw: jax.Array
+  target: Target
+  duration: jax.Array
+  cmd_pos: jax.Array
+  cmd_yaw: jax.Array
+  noise: jax.Array
+  params: dict
+  key: jax.Array
+
+
+def topdown_rot(yaw: jax.Array) -> jax.Array:
+  """Grip-site rotation pointing the approach axis (z) down, closing axis (x) at `yaw`."""
+  c, s = jnp.cos(yaw), jnp.sin(yaw)
+  zero = jnp.zeros_like(c)
+  x = jnp.stack([c, s, zero])
+  y = jnp.stack([s, -c, zero])
+  z = jnp.stack([zero, zero, -jnp.ones_like(c)])
+  return jnp.stack([x, y, z], axis=1)
+
+
+def site_yaw(obs: dict) -> jax.Array:
+  r = obs["robot0_eef_rot"].reshape(3, 3)
+  return jnp.arctan2(r[1, 0], r[0, 0])
+
+
+def quat_yaw_xyzw(q: jax.Array) -> jax.Array:
+  x, y, z, w = q[0], q[1], q[2], q[3]
+  return jnp.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def nearest_equivalent(angle: jax.Array, reference: jax.Array, period: float) -> jax.Array:
+  """The angle equal to `angle` modulo `period` that is closest to `reference`."""
+  return reference + jnp.mod(angle - reference + period / 2, period) - period / 2
+
+
+def min_jerk(tau: jax.Array) -> jax.Array:
+  return tau**3 * (10 - 15 * tau + 6 * tau**2)
+
+
+@dataclasses.dataclass(frozen=True)
+class ScriptedExpert:
+  """`plans[i](obs, params, cmd_pos, cmd_yaw) -> Target`; `sample_params(key) -> dict`."""
+  plans: Sequence[Callable[..., Target]]
+  sample_params: Callable[[jax.Array], dict]
+  noise_std: float = 0.0004  # m, innovation of the AR(1) positional noise
+  noise_decay: float = 0.9
+
+  def init(self, obs: dict, key: jax.Array) -> ExpertState:
+    key_params, key = jax.random.split(key)
+    pos, yaw = obs["robot0_eef_pos"], site_yaw(obs)
+    zero_t = Target(pos, yaw, jnp.array(-1.0), jnp.array(0.01), jnp.array(0), jnp.array(0.01))
+    return ExpertState(phase=jnp.array(0), t=jnp.array(0), start_pos=pos, start_yaw=yaw, target=zero_t,
+                       duration=jnp.array(1), cmd_pos=pos, cmd_yaw=yaw, noise=jnp.zeros(3),
+                       params=self.sample_params(key_params), key=key)
+
+  def act(self, es: ExpertState, obs: dict):
+    """-> (action (10,), next ExpertState)."""
+    last = len(self.plans) - 1
+    starting = es.t == 0
+    planned = jax.lax.switch(es.phase, list(self.plans), obs, es.params, es.cmd_pos, es.cmd_yaw)
+    target = jax.tree.map(lambda new, old: jnp.where(starting, new, old), planned, es.target)
+    start_pos = jnp.where(starting, es.cmd_pos, es.start_pos)
+    start_yaw = jnp.where(starting, es.cmd_yaw, es.start_yaw)
+    dist = jnp.linalg.norm(target.pos - start_pos) + 0.05 * jnp.abs(target.yaw - start_yaw)
+    duration = jnp.where(starting, jnp.maximum(2, jnp.ceil(dist / target.speed)).astype(jnp.int32), es.duration)
+    s = min_jerk(jnp.minimum((es.t + 1) / duration, 1.0))
+    cmd_pos = start_pos + (target.pos - start_pos) * s
+    cmd_yaw = start_yaw + (target.yaw - start_yaw) * s
+
+    key, key_noise = jax.random.split(es.key)
+    noise = self.noise_decay * es.noise + self.noise_std * jax.random.normal(key_noise, (3,))
+    action = jnp.concatenate([cmd_pos + noise, rotations.mat_to_rot6d(topdown_rot(cmd_yaw)), target.grip[None]])
+
+    elapsed = es.t + 1
+    scheduled = elapsed >= duration + target.hold
+    arrived = jnp.linalg.norm(obs["robot0_eef_pos"] - target.pos) < target.tol
+    advance = scheduled & (arrived | (elapsed >= duration + target.hold + TIMEOUT)) & (es.phase < last)
+    nxt = es.replace(phase=jnp.where(advance, es.phase + 1, es.phase), t=jnp.where(advance, 0, elapsed),
+                     start_pos=start_pos, start_yaw=start_yaw, target=target, duration=duration,
+                     cmd_pos=cmd_pos, cmd_yaw=cmd_yaw, noise=noise, key=key)
+    return action, nxt
+
+
+def uniform(key, lo, hi, shape=()):
+  return jax.random.uniform(key, shape, minval=lo, maxval=hi)
+
+
+def target(pos, yaw, grip, speed, hold=0, tol=0.01) -> Target:
+  f = lambda v: jnp.asarray(v, jnp.float32)
+  return Target(f(pos), f(yaw), f(grip), f(speed), jnp.asarray(hold, jnp.int32), f(tol))

@@ -1,0 +1,99 @@
+"""Square demonstrator: over the nut's handle, down, close, lift above the pegs, turn the nut square to
+the peg while carrying it over, lower it onto the peg, release, retreat."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from soe_jax.envs import rotations
+from soe_jax.envs import square as square_task
+from soe_jax.experts import script
+from soe_jax.experts.script import target, uniform
+
+CARRY_Z = 1.0
+PEG_TOP = 0.95
+
+
+def sample_params(key):
+  k = jax.random.split(key, 7)
+  return dict(speed=uniform(k[0], 0.010, 0.016), settle=jax.random.randint(k[1], (), 6, 12),
+              height=uniform(k[2], 0.05, 0.09), along=uniform(k[3], 0.004, 0.012),
+              grasp_dz=uniform(k[4], 0.003, 0.008), close=jax.random.randint(k[5], (), 5, 10),
+              yaw=uniform(k[6], -0.1, 0.1))
+
+
+def _nut(obs):
+  pos = obs["object"][:3]
+  yaw = script.quat_yaw_xyzw(obs["object"][3:7])
+  return pos, yaw
+
+
+def _handle(obs, p):
+  pos, yaw = _nut(obs)
+  axis = jnp.array([jnp.cos(yaw), jnp.sin(yaw), 0.0])
+  return pos + (square_task.HANDLE_OFFSET + p["along"]) * axis, yaw
+
+
+def settle(obs, p, cmd_pos, cmd_yaw):
+  return target(cmd_pos, cmd_yaw, -1.0, p["speed"], hold=p["settle"])
+
+
+def above(obs, p, cmd_pos, cmd_yaw):
+  handle, yaw = _handle(obs, p)
+  # Close across the handle: the closing axis along the nut's local y.
+  grasp_yaw = script.nearest_equivalent(yaw + jnp.pi / 2 + p["yaw"], cmd_yaw, jnp.pi)
+  return target(handle.at[2].add(p["height"]), grasp_yaw, -1.0, p["speed"], tol=0.015)
+
+
+def descend(obs, p, cmd_pos, cmd_yaw):
+  handle, _ = _handle(obs, p)
+  return target(handle.at[2].add(p["grasp_dz"]), cmd_yaw, -1.0, 0.6 * p["speed"], hold=1, tol=0.008)
+
+
+def close(obs, p, cmd_pos, cmd_yaw):
+  return target(cmd_pos, cmd_yaw, 1.0, p["speed"], hold=p["close"], tol=0.02)
+
+
+def lift(obs, p, cmd_pos, cmd_yaw):
+  return target(cmd_pos.at[2].set(CARRY_Z), cmd_yaw, 1.0, p["speed"], tol=0.02)
+
+
+def _over_peg(obs, cmd_pos, cmd_yaw, rotate: bool):
+  """Site target that puts the held nut's center over the square peg, turning it square if asked."""
+  nut, nut_yaw = _nut(obs)
+  eef = obs["robot0_eef_pos"]
+  # Square to the peg with the handle pointing left, back or right: with the handle pointing away
+  # (+x) the grip site would be beyond the arm's reach over the peg.
+  turns = script.nearest_equivalent(jnp.array([0.5, 1.0, -0.5]) * jnp.pi, nut_yaw, 2 * jnp.pi) - nut_yaw
+  turn = jnp.where(rotate, turns[jnp.argmin(jnp.abs(turns))], 0.0)
+  offset = rotations.rotz(turn) @ (nut - eef)  # nut center relative to the site after the turn
+  pos = jnp.concatenate([jnp.asarray(square_task.SQUARE_PEG) - offset[:2], cmd_pos[2:]])
+  return pos, cmd_yaw + turn, offset[2]
+
+
+def carry(obs, p, cmd_pos, cmd_yaw):
+  pos, yaw, _ = _over_peg(obs, cmd_pos, cmd_yaw, rotate=True)
+  return target(pos, yaw, 1.0, 1.2 * p["speed"], hold=3, tol=0.01)
+
+
+def align(obs, p, cmd_pos, cmd_yaw):
+  pos, yaw, dz = _over_peg(obs, cmd_pos, cmd_yaw, rotate=False)
+  return target(pos.at[2].set(PEG_TOP + 0.02 - dz), yaw, 1.0, 0.6 * p["speed"], hold=3, tol=0.006)
+
+
+def insert(obs, p, cmd_pos, cmd_yaw):
+  pos, yaw, dz = _over_peg(obs, cmd_pos, cmd_yaw, rotate=False)
+  return target(pos.at[2].set(square_task.TABLE_TOP + 0.012 - dz), yaw, 1.0, 0.5 * p["speed"], hold=2, tol=0.01)
+
+
+def release(obs, p, cmd_pos, cmd_yaw):
+  return target(cmd_pos, cmd_yaw, -1.0, p["speed"], hold=4, tol=0.03)
+
+
+def retreat(obs, p, cmd_pos, cmd_yaw):
+  return target(cmd_pos.at[2].set(CARRY_Z), cmd_yaw, -1.0, p["speed"], hold=40)
+
+
+EXPERT = script.ScriptedExpert(plans=(settle, above, descend, close, lift, carry, align, insert, release, retreat),
+                               sample_params=sample_params)
