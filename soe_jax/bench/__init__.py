@@ -1,0 +1,1 @@
+"""Benchmarks: `python -m soe_jax.bench <what> ...`, each printing one JSON object last."""

@@ -1,0 +1,89 @@
+"""Environment throughput: control steps per second summed over a batch, compile excluded.
+
+The arm follows a smooth scripted motion (a 4 cm circle around its start pose, gripper cycling), so
+the IK, the servos and contacts all do real work. For the `mujoco` backend the time is split into
+physics (inside the C engine), host callback overhead (conversion, copies), IK and observations
+(each timed alone as the same compiled batch computation), and the remainder (scan, dispatch).
+"""
+
+from __future__ import annotations
+
+import time
+
+import jax
+import jax.numpy as jnp
+
+from soe_jax.envs import make_env, rotations
+
+
+def _motion(obs0, t):
+  """Action (10,) at control step t: a circle of 4 cm radius in the horizontal plane."""
+  angle = 2 * jnp.pi * t / 80.0
+  pos = obs0["robot0_eef_pos"] + 0.04 * jnp.array([jnp.cos(angle) - 1.0, jnp.sin(angle), 0.0])
+  rot6d = rotations.mat_to_rot6d(obs0["robot0_eef_rot"].reshape(3, 3))
+  grip = jnp.where(jnp.mod(t, 40) < 20, -1.0, 1.0)
+  return jnp.concatenate([pos, rot6d, grip[None]])
+
+
+def run(task: str, num_envs: int, backend: str = "auto", steps: int | None = None, repeats: int = 3) -> dict:
+  env = make_env(task, backend=backend)
+  steps = steps or (20 if env.backend == "mujoco" else 2)
+  keys = jax.random.split(jax.random.PRNGKey(0), num_envs)
+  state = jax.jit(jax.vmap(env.reset))(keys)
+  obs0 = state.obs
+  step = jax.vmap(env.step)
+  motion = jax.vmap(_motion, in_axes=(0, None))
+
+  def chunk(state, t0):
+    def body(s, t):
+      return step(s, motion(obs0, t)), None
+    state, _ = jax.lax.scan(body, state, t0 + jnp.arange(steps))
+    return state
+
+  t = time.perf_counter()
+  compiled = jax.jit(chunk).lower(state, 0).compile()
+  compile_s = time.perf_counter() - t
+  state = jax.block_until_ready(compiled(state, 0))  # warm-up
+  physics = env.physics
+  if env.backend == "mujoco":
+    physics.physics_seconds = physics.callback_seconds = 0.0
+  t = time.perf_counter()
+  for r in range(repeats):
+    state = compiled(state, (r + 1) * steps)
+  jax.block_until_ready(state)
+  total = time.perf_counter() - t
+  n = num_envs * steps * repeats
+  result = dict(task=task, num_envs=num_envs, backend=env.backend, control_steps_per_s=round(n / total, 1),
+                physics_steps_per_s=round(n * env.config.nsubsteps / total, 1), compile_s=round(compile_s, 2))
+  if env.backend == "mujoco":
+    result["split_s_per_1k_control_steps"] = _split(env, state, total, n, physics)
+  return result
+
+
+def _split(env, state, total, n, physics) -> dict:
+  """Seconds per 1,000 control steps spent in each part of a step."""
+  from soe_jax.envs import controller
+
+  qpos = state.pipeline_state.qpos
+  action = jax.vmap(_motion, in_axes=(0, None))(state.obs, 0)
+  ik = jax.jit(jax.vmap(lambda a, q: controller.joint_controls(env.kin, env.action_mode, a, q[:7])))
+  obs = jax.jit(jax.vmap(env._observe))
+
+  def timed(fn, *args, reps=20):
+    jax.block_until_ready(fn(*args))
+    t = time.perf_counter()
+    for _ in range(reps):
+      out = fn(*args)
+    jax.block_until_ready(out)
+    return (time.perf_counter() - t) / reps
+
+  batch = qpos.shape[0]
+  per_step = 1000.0 / batch  # batched steps per 1k control steps
+  ik_s = timed(ik, action, qpos) * per_step
+  obs_s = timed(obs, state.pipeline_state) * per_step
+  phys_s = physics.physics_seconds / n * 1000
+  cb_s = (physics.callback_seconds - physics.physics_seconds) / n * 1000
+  total_s = total / n * 1000
+  return dict(total=round(total_s, 4), physics=round(phys_s, 4), callback_overhead=round(cb_s, 4),
+              ik=round(ik_s, 4), observation=round(obs_s, 4),
+              other=round(total_s - phys_s - cb_s - ik_s - obs_s, 4))
