@@ -9,7 +9,8 @@ floor. Success: the can's center inside the target compartment x in (0.1, 0.295)
 in the eef frame).
 
 The other three objects of PickPlace (milk, bread, cereal) are parked outside the scene in robosuite's
-single-object variant, so they are left out here.
+single-object variant, so they are left out here. The can collides as a 16-sided convex prism (MJX
+has no cylinder-box collisions).
 """
 
 from __future__ import annotations
@@ -53,6 +54,9 @@ class Can(manipulation.ManipulationEnv):
   object_dim = 14
   agentview = dict(pos="1.0 0 1.75", quat="0.653 0.271 0.271 0.653")
 
+  def _assets_mjcf(self) -> str:
+    return manipulation.prism_mesh("can_mesh", CAN_RADIUS, CAN_HALF_HEIGHT)
+
   def _scene_mjcf(self) -> str:
     tx, ty = TARGET_CENTER
     return f"""
@@ -62,7 +66,7 @@ class Can(manipulation.ManipulationEnv):
           rgba="0.2 0.8 0.2 0.3" group="2"/>
     <body name="can" pos="0.1 -0.25 {FLOOR_TOP + CAN_HALF_HEIGHT}">
       <freejoint name="can_joint"/>
-      <geom name="can" type="cylinder" size="{CAN_RADIUS} {CAN_HALF_HEIGHT}" density="100" condim="4"
+      <geom name="can" type="mesh" mesh="can_mesh" density="100" condim="4"
             friction="0.95 0.3 0.1" solimp="0.998 0.998 0.001" {panda.OBJECT_COLLISION} rgba="0.75 0.75 0.8 1"/>
     </body>"""
 

@@ -70,6 +70,10 @@ class ManipulationEnv(Env):
   def _scene_mjcf(self) -> str:
     raise NotImplementedError
 
+  def _assets_mjcf(self) -> str:
+    """Meshes the scene uses (none by default)."""
+    return ""
+
   def _sample_objects(self, key: jax.Array) -> jax.Array:
     """Object qpos (free joints) at reset, (nq - 9,)."""
     raise NotImplementedError
@@ -87,6 +91,7 @@ class ManipulationEnv(Env):
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{PHYSICS_DT}" integrator="implicitfast" cone="elliptic" impratio="20"/>
   <visual><global offwidth="640" offheight="480"/><quality shadowsize="0"/></visual>
+  <asset>{self._assets_mjcf()}</asset>
   <worldbody>
     <light pos="0 0 3" dir="0 0 -1" directional="true"/>
     <geom name="floor" type="plane" size="3 3 0.1" {panda.FIXTURE_COLLISION} rgba="0.6 0.6 0.6 1"/>
@@ -180,6 +185,16 @@ def canonical_quat_xyzw(q_wxyz):
 def yaw_free_qpos(pos, yaw) -> jax.Array:
   """Free-joint qpos (7,) for a body at `pos`, rotated by `yaw` about world z."""
   return jnp.concatenate([jnp.asarray(pos, jnp.float32), rotations.yaw_quat_wxyz(yaw)])
+
+
+def prism_mesh(name: str, radius: float, half_height: float, sides: int = 16) -> str:
+  """A convex regular prism standing in for a cylinder. MJX (3.17) collides cylinders with planes,
+  spheres, capsules and cylinders only; a convex mesh collides with boxes and meshes on both backends.
+  The vertices lie on the cylinder's circle."""
+  angles = np.arange(sides) * 2 * np.pi / sides
+  ring = np.stack([radius * np.cos(angles), radius * np.sin(angles)], 1)
+  verts = np.concatenate([np.concatenate([ring, np.full((sides, 1), z)], 1) for z in (-half_height, half_height)])
+  return f'<mesh name="{name}" vertex="{np_fmt(verts)}"/>'
 
 
 def np_fmt(v) -> str:

@@ -7,7 +7,8 @@ x in [-0.115, -0.110], y in [0.11, 0.225] with a random yaw, dropped from z = 0.
 Success (square peg only): |x - 0.23| < 0.03, |y - 0.10| < 0.03, z < 0.87 for the nut's body origin,
 and the grip site farther than atanh(0.4) / 10 m from it. `object` = SquareNut_pos, SquareNut_quat
 (xyzw), SquareNut_to_robot0_eef_pos, SquareNut_to_robot0_eef_quat (the nut's pose in the eef frame).
-The round nut, parked outside the scene in this variant, is left out.
+The round nut, parked outside the scene in this variant, is left out; the round peg collides as a
+16-sided convex prism (MJX has no cylinder-box collisions).
 """
 
 from __future__ import annotations
@@ -33,6 +34,9 @@ class Square(manipulation.ManipulationEnv):
   base_pos = (-0.56, 0.0, 0.912)
   object_dim = 14
 
+  def _assets_mjcf(self) -> str:
+    return manipulation.prism_mesh("round_peg_mesh", 0.02, PEG_HALF_HEIGHT)
+
   def _scene_mjcf(self) -> str:
     bars = [((0.0105, 0.04375, 0.01), (0.03325, 0, 0)), ((0.0105, 0.04375, 0.01), (-0.03325, 0, 0)),
             ((0.03125, 0.0105, 0.01), (0, 0.03325, 0)), ((0.03125, 0.0105, 0.01), (0, -0.03325, 0)),
@@ -47,7 +51,7 @@ class Square(manipulation.ManipulationEnv):
           friction="1 0.005 0.0001" rgba="0.8 0.7 0.6 1"/>
     <geom name="peg_square" type="box" size="0.016 0.016 {PEG_HALF_HEIGHT}" pos="{sx} {sy} 0.85"
           friction="1 0.005 0.0001" {panda.FIXTURE_COLLISION} rgba="0.5 0.5 0.5 1"/>
-    <geom name="peg_round" type="cylinder" size="0.02 {PEG_HALF_HEIGHT}" pos="{rx} {ry} 0.85"
+    <geom name="peg_round" type="mesh" mesh="round_peg_mesh" pos="{rx} {ry} 0.85"
           friction="1 0.005 0.0001" {panda.FIXTURE_COLLISION} rgba="0.5 0.5 0.5 1"/>
     <body name="nut" pos="-0.11 0.15 0.83">
       <freejoint name="nut_joint"/>

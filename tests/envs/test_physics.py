@@ -69,7 +69,7 @@ def _scripted_motion(obs0, t):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("task", ["lift", "square"])
+@pytest.mark.parametrize("task", ["lift", "can", "square"])
 def test_backends_agree_on_a_scripted_motion(task):
   """Same start state, same 50 actions: the end-effector paths on MJX and the C engine agree."""
   paths = {}

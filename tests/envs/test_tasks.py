@@ -95,7 +95,7 @@ def test_square_success_square_peg_round_peg_beside():
   assert not _success(env, on_square, [on_square[0], on_square[1], on_square[2] + 0.02])  # still held
 
 
-@pytest.mark.parametrize("task", ["lift", "square"])
+@pytest.mark.parametrize("task", TASKS)
 def test_object_resting_on_table_stays_put(task, jitted_env):
   env, reset, step = jitted_env(task)
   state = reset(jax.random.PRNGKey(1))
