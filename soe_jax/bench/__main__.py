@@ -1,6 +1,8 @@
 """Benchmarks, each printing one JSON object as its last line.
 
   python -m soe_jax.bench env --task=square --num_envs=256 [--backend=mujoco|mjx]
+  python -m soe_jax.bench fit --config=configs/square.py [--bypass=on|off] [--ema=on|off]
+  python -m soe_jax.bench sample --config=configs/square.py --batch=1 --steps=10
 """
 
 from __future__ import annotations
@@ -8,15 +10,21 @@ from __future__ import annotations
 import json
 
 from absl import app, flags
+from ml_collections import config_flags
 
 flags.DEFINE_string("task", "lift", "Task name (env).")
 flags.DEFINE_integer("num_envs", 64, "Batch of environments (env).")
 flags.DEFINE_string("backend", "auto", "Physics backend: auto, mujoco or mjx (env).")
-flags.DEFINE_integer("steps", None, "Control steps per compiled call (env; default 20 mujoco, 2 mjx).")
-flags.DEFINE_integer("repeats", 3, "Timed calls (env).")
+flags.DEFINE_integer("steps", None, "env: control steps per compiled call (default 20 mujoco, 2 mjx); "
+                     "fit: SGD steps per timed chunk (default 10); sample: denoising steps (default 10).")
+flags.DEFINE_integer("repeats", None, "Timed calls.")
+flags.DEFINE_enum("bypass", "off", ["on", "off"], "fit: train the VIB bypass too.")
+flags.DEFINE_enum("ema", "off", ["on", "off"], "fit: keep the EMA of parameters.")
+flags.DEFINE_integer("batch", 1, "sample: observations per chunk.")
+config_flags.DEFINE_config_file("config", None, "fit / sample: configs/<task>.py[:PRESETS].", lock_config=True)
 FLAGS = flags.FLAGS
 
-BENCHMARKS = ("env",)
+BENCHMARKS = ("env", "fit", "sample")
 
 
 def main(argv):
@@ -24,9 +32,18 @@ def main(argv):
     raise app.UsageError(f"usage: python -m soe_jax.bench <{'|'.join(BENCHMARKS)}> [flags]; got {argv[1:]}")
   from soe_jax import compile_cache
   compile_cache.enable()
-  if argv[1] == "env":
+  what = argv[1]
+  if what in ("fit", "sample") and FLAGS.config is None:
+    raise app.UsageError(f"bench {what} needs --config=configs/<task>.py[:PRESETS]")
+  if what == "env":
     from soe_jax.bench import env
-    result = env.run(FLAGS.task, FLAGS.num_envs, FLAGS.backend, FLAGS.steps, FLAGS.repeats)
+    result = env.run(FLAGS.task, FLAGS.num_envs, FLAGS.backend, FLAGS.steps, FLAGS.repeats or 3)
+  elif what == "fit":
+    from soe_jax.bench import policy
+    result = policy.fit(FLAGS.config, FLAGS.bypass == "on", FLAGS.ema == "on", FLAGS.steps or 10, FLAGS.repeats or 2)
+  else:
+    from soe_jax.bench import policy
+    result = policy.sample(FLAGS.config, FLAGS.batch, FLAGS.steps or 10, FLAGS.repeats or 20)
   print(json.dumps(result))
 
 

@@ -1,0 +1,88 @@
+"""Policy benchmarks on random data in memory: fit-step time and one action chunk's sampling time.
+
+`fit` times whole compiled chunks of SGD steps (window sampling from an episode buffer, normalisation,
+forward, backward, AdamW, EMA when on) and reports the mean per step; `sample` times one base-path
+action chunk (the configured sampler with `steps` denoising steps)."""
+
+from __future__ import annotations
+
+import time
+
+import jax
+import jax.numpy as jnp
+import ml_collections
+import numpy as np
+
+from soe_jax import buffer as buffer_lib
+from soe_jax import fit as fit_lib
+from soe_jax import train_state
+from soe_jax.envs import registry as env_registry
+from soe_jax.policies import normalizer as normalizer_lib
+from soe_jax.policies.policy import make_policy
+
+ACTION_DIM = 10
+
+
+def _obs_dim(config) -> int:
+  env_cls = env_registry._factory(config.env.task)
+  return 9 + env_cls.object_dim
+
+
+def _param_count(tree) -> int:
+  return int(sum(np.prod(x.shape) for x in jax.tree.leaves(tree)))
+
+
+def _random_setup(config, key):
+  obs_dim = _obs_dim(config)
+  policy = make_policy(config.policy, obs_dim, ACTION_DIM)
+  rng = np.random.default_rng(0)
+  n, length = 64, 120
+  obs = rng.uniform(-1, 1, (n, length, obs_dim)).astype(np.float32)
+  actions = rng.uniform(-1, 1, (n, length, ACTION_DIM)).astype(np.float32)
+  buf = buffer_lib.add(buffer_lib.create(n, length, obs_dim, ACTION_DIM), obs, actions, np.full(n, length),
+                       np.ones(n, bool), 0)
+  norm = normalizer_lib.fit(obs.reshape(-1, obs_dim), actions.reshape(-1, ACTION_DIM))
+  return policy, policy.init(key), buf, norm
+
+
+def fit(config: ml_collections.ConfigDict, bypass: bool, ema: bool, steps: int = 10, repeats: int = 2) -> dict:
+  config = ml_collections.ConfigDict(config)
+  config.policy.bypass.enabled = bypass
+  policy, params, buf, norm = _random_setup(config, jax.random.PRNGKey(0))
+  tx = train_state.make_optimizer(config.fit, 10_000)
+  state = train_state.create(params, tx, norm, ema=ema)
+  fit_cfg = ml_collections.ConfigDict(dict(batch_size=config.fit.batch_size, chunk_size=steps))
+  t = time.perf_counter()
+  state, _ = fit_lib.fit(policy, tx, state, buf, jax.random.PRNGKey(1), steps, fit_cfg, progress=False)
+  compile_and_first = time.perf_counter() - t
+  t = time.perf_counter()
+  for r in range(repeats):
+    state, _ = fit_lib.fit(policy, tx, state, buf, jax.random.PRNGKey(2 + r), steps, fit_cfg, progress=False)
+  jax.block_until_ready(state.params)
+  per_step = (time.perf_counter() - t) / (steps * repeats)
+  return dict(bench="fit", task=config.env.task, head=config.policy.head.name,
+              down_dims=list(config.policy.head.kwargs.get("down_dims", [])), batch_size=config.fit.batch_size,
+              bypass=bypass, ema=ema, ms_per_step=round(per_step * 1000, 2),
+              samples_per_s=round(config.fit.batch_size / per_step, 1), params=_param_count(state.params),
+              first_chunk_s=round(compile_and_first, 2), devices=jax.device_count())
+
+
+def sample(config: ml_collections.ConfigDict, batch: int, steps: int, repeats: int = 20) -> dict:
+  config = ml_collections.ConfigDict(config)
+  if "num_inference_steps" in config.policy.head.kwargs:
+    config.policy.head.kwargs.num_inference_steps = steps
+  policy, params, _, _ = _random_setup(config, jax.random.PRNGKey(0))
+  obs = jnp.zeros((batch, policy.n_obs_steps, policy.obs_dim))
+  fn = jax.jit(policy.sample)
+  t = time.perf_counter()
+  jax.block_until_ready(fn(params, obs, jax.random.PRNGKey(0)))
+  compile_s = time.perf_counter() - t
+  times = []
+  for r in range(repeats):
+    t = time.perf_counter()
+    jax.block_until_ready(fn(params, obs, jax.random.PRNGKey(r)))
+    times.append(time.perf_counter() - t)
+  return dict(bench="sample", task=config.env.task, head=config.policy.head.name,
+              down_dims=list(config.policy.head.kwargs.get("down_dims", [])), batch=batch, steps=steps,
+              ms_per_chunk=round(float(np.median(times)) * 1000, 2), params=_param_count(params["head"]),
+              compile_s=round(compile_s, 2))

@@ -1,0 +1,102 @@
+"""Fixed-capacity episode buffer on device, and Diffusion Policy's window sampling.
+
+Static shapes (capacity x max_length) keep aggregation and sampling jittable, so nothing recompiles as
+rounds add episodes. Provenance per episode: `source` (0 = demonstration, r = exploration round r)
+and `steered`.
+
+Window sampling follows Diffusion Policy's SequenceSampler: with horizon T, n_obs_steps To and
+n_action_steps Ta, an episode of length L has L - T + To + Ta - 1 windows (L - 7 for 16/2/8), starting
+from -(To - 1); indices outside the episode repeat its first or last frame. Windows are drawn
+uniformly over all windows of all valid episodes. A sample holds the first To observations and all T
+actions of its window.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+
+@struct.dataclass
+class EpisodeBuffer:
+  obs: jax.Array  # (N, L, D)
+  actions: jax.Array  # (N, L, A)
+  length: jax.Array  # (N,) int32
+  valid: jax.Array  # (N,) bool
+  source: jax.Array  # (N,) int32
+  steered: jax.Array  # (N,) bool
+  count: jax.Array  # () int32, episodes stored
+
+  @property
+  def capacity(self) -> int:
+    return self.obs.shape[0]
+
+  @property
+  def max_length(self) -> int:
+    return self.obs.shape[1]
+
+
+def create(capacity: int, max_length: int, obs_dim: int, action_dim: int) -> EpisodeBuffer:
+  return EpisodeBuffer(obs=jnp.zeros((capacity, max_length, obs_dim)), actions=jnp.zeros((capacity, max_length, action_dim)),
+                       length=jnp.zeros(capacity, jnp.int32), valid=jnp.zeros(capacity, bool),
+                       source=jnp.zeros(capacity, jnp.int32), steered=jnp.zeros(capacity, bool),
+                       count=jnp.zeros((), jnp.int32))
+
+
+def pad_episodes(episodes: list[dict], max_length: int, obs_key: str = "policy_obs") -> dict:
+  """A list of {obs_key: (T, D), "actions": (T, A)} -> padded numpy arrays with lengths."""
+  n = len(episodes)
+  d = episodes[0][obs_key].shape[-1]
+  a = episodes[0]["actions"].shape[-1]
+  obs, actions = np.zeros((n, max_length, d), np.float32), np.zeros((n, max_length, a), np.float32)
+  length = np.zeros(n, np.int32)
+  for i, ep in enumerate(episodes):
+    t = ep["actions"].shape[0]
+    if t > max_length:
+      raise ValueError(f"episode {i} has {t} steps, more than the buffer's max_length {max_length}")
+    obs[i, :t], actions[i, :t], length[i] = ep[obs_key], ep["actions"], t
+  return dict(obs=obs, actions=actions, length=length)
+
+
+@jax.jit
+def add(buffer: EpisodeBuffer, obs, actions, length, keep, source, steered=None) -> EpisodeBuffer:
+  """Append the episodes with `keep` set (padded (M, L, .) arrays) after the stored ones. Episodes that
+  do not fit in the capacity are dropped; compare `count` before and after to see how many landed."""
+  m = obs.shape[0]
+  steered = jnp.zeros(m, bool) if steered is None else steered
+  order = jnp.argsort(~keep, stable=True)  # kept episodes first, in their order
+  n_keep = jnp.sum(keep).astype(jnp.int32)
+  slots = buffer.count + jnp.arange(m)
+  ok = (jnp.arange(m) < n_keep) & (slots < buffer.capacity)
+  slots = jnp.where(ok, slots, buffer.capacity)  # out of range: dropped by mode="drop"
+
+  def put(dst, src):
+    return dst.at[slots].set(src[order], mode="drop")
+
+  source = jnp.broadcast_to(jnp.asarray(source, jnp.int32), (m,))
+  return buffer.replace(obs=put(buffer.obs, obs), actions=put(buffer.actions, actions),
+                        length=put(buffer.length, length.astype(jnp.int32)), valid=buffer.valid.at[slots].set(True, mode="drop"),
+                        source=put(buffer.source, source), steered=put(buffer.steered, steered),
+                        count=jnp.minimum(buffer.count + n_keep, buffer.capacity))
+
+
+def num_windows(buffer: EpisodeBuffer, horizon: int, n_obs_steps: int, n_action_steps: int) -> jax.Array:
+  """(N,) windows per episode (0 for empty slots, at least 1 for a stored episode)."""
+  w = buffer.length - horizon + n_obs_steps + n_action_steps - 1
+  return jnp.where(buffer.valid, jnp.maximum(w, 1), 0)
+
+
+def sample_windows(buffer: EpisodeBuffer, key, batch_size: int, horizon: int, n_obs_steps: int,
+                   n_action_steps: int) -> dict:
+  """-> {"obs": (B, To, D), "actions": (B, T, A)}, raw (not normalised)."""
+  counts = num_windows(buffer, horizon, n_obs_steps, n_action_steps)
+  cum = jnp.cumsum(counts)
+  u = jax.random.randint(key, (batch_size,), 0, cum[-1])
+  ep = jnp.searchsorted(cum, u, side="right")
+  start = u - (cum[ep] - counts[ep]) - (n_obs_steps - 1)
+  idx = jnp.clip(start[:, None] + jnp.arange(horizon), 0, buffer.length[ep][:, None] - 1)
+  obs = buffer.obs[ep[:, None], idx[:, :n_obs_steps]]
+  actions = buffer.actions[ep[:, None], idx]
+  return {"obs": obs, "actions": actions}

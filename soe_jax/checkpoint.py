@@ -1,0 +1,82 @@
+"""Checkpoints with orbax: the whole `TrainState` (parameters, EMA, optimiser state, step, normaliser
+statistics) plus the config as JSON, restorable into a ready-to-sample policy with one call.
+
+  save(directory, state, config)
+  loaded = load(directory)                         # LoadedPolicy
+  actions = loaded.act(obs_history, key)           # raw observations in, raw actions out
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+
+import jax
+import ml_collections
+import orbax.checkpoint as ocp
+
+from soe_jax import train_state
+from soe_jax.policies import normalizer as normalizer_lib
+from soe_jax.policies.policy import Policy, make_policy
+
+STATE_DIR = "state"
+CONFIG_FILE = "config.json"
+ACTION_DIM = 10
+
+
+def _obs_dim(config) -> int:
+  from soe_jax.envs import registry
+  return 9 + registry._factory(config.env.task).object_dim
+
+
+def abstract_state(config: ml_collections.ConfigDict, policy: Policy) -> train_state.TrainState:
+  """The shapes and dtypes of a TrainState for `config`, without allocating it."""
+  tx = train_state.make_optimizer(config.fit, config.fit.num_steps)
+
+  def build():
+    params = policy.init(jax.random.PRNGKey(0))
+    norm = normalizer_lib.Normalizer(*(jax.numpy.zeros(n) for n in (policy.obs_dim,) * 2 + (policy.action_dim,) * 2))
+    return train_state.create(params, tx, norm, ema=config.fit.ema)
+
+  return jax.eval_shape(build)
+
+
+def save(directory: str, state: train_state.TrainState, config: ml_collections.ConfigDict) -> None:
+  """Write `state` and `config` under `directory` (replacing what was there)."""
+  directory = os.path.abspath(directory)
+  os.makedirs(directory, exist_ok=True)
+  checkpointer = ocp.StandardCheckpointer()
+  checkpointer.save(os.path.join(directory, STATE_DIR), jax.device_get(state), force=True)
+  checkpointer.wait_until_finished()
+  tmp = os.path.join(directory, CONFIG_FILE + ".tmp")
+  with open(tmp, "w") as f:
+    f.write(config.to_json(indent=2))
+  os.replace(tmp, os.path.join(directory, CONFIG_FILE))
+
+
+@dataclasses.dataclass(frozen=True)
+class LoadedPolicy:
+  policy: Policy
+  state: train_state.TrainState
+  config: ml_collections.ConfigDict
+
+  def act(self, obs_history: jax.Array, key: jax.Array, cond_fn=None) -> jax.Array:
+    """Raw observation history (B, To, D) -> raw action chunk (B, T, A) from the base path (EMA weights)."""
+    norm = self.state.normalizer
+    actions = self.policy.sample(self.state.eval_params, norm.normalize_obs(obs_history), key, cond_fn)
+    return norm.unnormalize_actions(actions)
+
+
+def load(directory: str) -> LoadedPolicy:
+  """Restore a checkpoint written by `save` into a ready-to-sample policy."""
+  directory = os.path.abspath(directory)
+  config_path = os.path.join(directory, CONFIG_FILE)
+  if not os.path.exists(config_path):
+    raise FileNotFoundError(f"no checkpoint at {directory!r}: {CONFIG_FILE} is missing")
+  with open(config_path) as f:
+    config = ml_collections.ConfigDict(json.load(f))
+  policy = make_policy(config.policy, _obs_dim(config), ACTION_DIM)
+  target = abstract_state(config, policy)
+  state = ocp.StandardCheckpointer().restore(os.path.join(directory, STATE_DIR), target)
+  return LoadedPolicy(policy, state, config)

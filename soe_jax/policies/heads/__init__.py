@@ -1,0 +1,1 @@
+"""Action heads: pure (init, loss, sample) functions over a conditioning vector."""

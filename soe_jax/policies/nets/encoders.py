@@ -1,0 +1,25 @@
+"""Observation encoders E: normalised observation history -> conditioning vector `c`.
+
+- `lowdim`: the normalised low-dim vectors of the `n_obs_steps` frames, concatenated oldest first
+  (no parameters), (B, To, D) -> (B, To * D).
+"""
+
+from __future__ import annotations
+
+import flax.linen as nn
+import jax.numpy as jnp
+
+
+class LowDimEncoder(nn.Module):
+  @nn.compact
+  def __call__(self, obs, train: bool = False):
+    return obs.reshape(obs.shape[:-2] + (obs.shape[-2] * obs.shape[-1],))
+
+
+ENCODERS = {"lowdim": LowDimEncoder}
+
+
+def make_encoder(name: str, **kwargs) -> nn.Module:
+  if name not in ENCODERS:
+    raise ValueError(f"unknown observation encoder {name!r}; known: {', '.join(sorted(ENCODERS))}")
+  return ENCODERS[name](**kwargs)

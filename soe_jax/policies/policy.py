@@ -1,0 +1,108 @@
+"""The dual-path SOE policy (DESIGN.md, "The policy: two paths").
+
+Base path:        c = E(o),  a = D(c).
+Exploration path: mu, sigma = p_theta(c);  z ~ N(mu, (alpha sigma)^2);  c~ = q_phi(z);  a~ = D(c~).
+Loss L = L_IL + L_IB with L_IL = head loss on c and L_IB = head loss on c~ + beta KL(N(mu, sigma^2) || N(0, I)).
+Gradient separation is exact: c enters p_theta through a stop-gradient and the head's parameters enter
+the IB path through a stop-gradient, so L_IB never changes E or D; L_IL does not touch p_theta, q_phi.
+With the bypass off (the plain Diffusion Policy baseline) only L_IL is trained.
+
+All functions take normalised observations (B, To, D) and return normalised actions (B, T, A).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import ml_collections
+
+from soe_jax.policies import registry
+from soe_jax.policies.heads.base import Head
+from soe_jax.policies.nets import encoders, vib
+
+# Named key streams: the same stream serves L_IL whether or not the bypass is trained.
+_KEY_IL, _KEY_IB, _KEY_Z, _KEY_ENC = 0, 1, 2, 3
+
+
+@dataclasses.dataclass(frozen=True)
+class Policy:
+  head: Head
+  encoder: object
+  p_net: vib.Encoder
+  q_net: vib.Decoder
+  obs_dim: int
+  action_dim: int
+  n_obs_steps: int
+  horizon: int
+  n_action_steps: int
+  bypass: bool
+  beta: float
+  cond_dim: int
+
+  def init(self, key) -> dict:
+    k_enc, k_head, k_p, k_q = jax.random.split(key, 4)
+    example = jnp.zeros((1, self.n_obs_steps, self.obs_dim))
+    params = {"encoder": self.encoder.init(k_enc, example).get("params", {}),
+              "head": self.head.init(k_head, self.cond_dim)}
+    if self.bypass:
+      params["p"] = self.p_net.init(k_p, jnp.zeros((1, self.cond_dim)))["params"]
+      params["q"] = self.q_net.init(k_q, jnp.zeros((1, self.p_net.latent_dim)))["params"]
+    return params
+
+  def encode(self, params, obs, train: bool = False, key=None):
+    rngs = {"crop": key} if key is not None else None
+    return self.encoder.apply({"params": params["encoder"]}, obs, train=train, rngs=rngs)
+
+  def latent(self, params, cond):
+    """mu, log_std (B, d) of the latent for a conditioning (B, G)."""
+    return self.p_net.apply({"params": params["p"]}, cond)
+
+  def decode_latent(self, params, z):
+    return self.q_net.apply({"params": params["q"]}, z)
+
+  def loss(self, params, batch, key):
+    """batch: obs (B, To, D), actions (B, T, A), both normalised -> (loss, aux)."""
+    key_il, key_ib, key_z, key_enc = (jax.random.fold_in(key, i) for i in (_KEY_IL, _KEY_IB, _KEY_Z, _KEY_ENC))
+    cond = self.encode(params, batch["obs"], train=True, key=key_enc)
+    loss_il, _ = self.head.loss(params["head"], cond, batch["actions"], key_il)
+    aux = {"loss_il": loss_il}
+    if not self.bypass:
+      return loss_il, aux
+    mu, log_std = self.latent(params, jax.lax.stop_gradient(cond))
+    z = mu + jnp.exp(log_std) * jax.random.normal(key_z, mu.shape)
+    cond_tilde = self.decode_latent(params, z)
+    loss_ib_head, _ = self.head.loss(jax.lax.stop_gradient(params["head"]), cond_tilde, batch["actions"], key_ib)
+    kl = jnp.mean(vib.kl_standard_normal(mu, log_std))
+    loss_ib = loss_ib_head + self.beta * kl
+    aux.update(loss_ib=loss_ib, loss_ib_head=loss_ib_head, kl=kl, latent_std=jnp.mean(jnp.exp(log_std)))
+    return loss_il + loss_ib, aux
+
+  def sample(self, params, obs, key, cond_fn=None):
+    """Base path a = D(E(o)): (B, To, D) -> (B, T, A)."""
+    actions, _ = self.head.sample(params["head"], self.encode(params, obs), key, cond_fn)
+    return actions
+
+  def sample_explore(self, params, obs, key, alpha: float | jax.Array):
+    """Exploration path with z ~ N(mu, (alpha sigma)^2) -> (actions (B, T, A), z (B, d))."""
+    key_z, key_head = jax.random.split(key)
+    mu, log_std = self.latent(params, self.encode(params, obs))
+    z = mu + alpha * jnp.exp(log_std) * jax.random.normal(key_z, mu.shape)
+    actions, _ = self.head.sample(params["head"], self.decode_latent(params, z), key_head)
+    return actions, z
+
+
+def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int) -> Policy:
+  """From `config.policy`-shaped settings: head {name, kwargs}, encoder {name, kwargs}, bypass
+  {enabled, latent_dim, hidden, beta}, n_obs_steps, horizon, n_action_steps."""
+  head = registry.make_head(config.head.name, action_dim=action_dim, horizon=config.horizon,
+                            **config.head.get("kwargs", {}))
+  encoder = encoders.make_encoder(config.encoder.name, **config.encoder.get("kwargs", {}))
+  example = jnp.zeros((1, config.n_obs_steps, obs_dim))
+  cond_dim = jax.eval_shape(lambda: encoder.init_with_output(jax.random.PRNGKey(0), example)[0]).shape[-1]
+  bp = config.bypass
+  return Policy(head=head, encoder=encoder, p_net=vib.Encoder(bp.latent_dim, bp.hidden),
+                q_net=vib.Decoder(cond_dim, bp.hidden), obs_dim=obs_dim, action_dim=action_dim,
+                n_obs_steps=config.n_obs_steps, horizon=config.horizon, n_action_steps=config.n_action_steps,
+                bypass=bool(bp.enabled), beta=float(bp.beta), cond_dim=int(cond_dim))

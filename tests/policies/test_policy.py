@@ -1,0 +1,98 @@
+"""The dual-path policy: exact gradient separation, heads by name, learning on toy problems."""
+
+import jax
+import jax.numpy as jnp
+import ml_collections
+import numpy as np
+import optax
+import pytest
+
+from soe_jax.policies import registry
+from soe_jax.policies.policy import make_policy
+
+
+def _config(head="diffusion_unet", bypass=True, **head_kwargs):
+  kwargs = dict(down_dims=(16, 32, 64), step_embed_dim=32) if head != "mlp" else dict(hidden=(64, 64))
+  kwargs.update(head_kwargs)
+  return ml_collections.ConfigDict(dict(
+      head=dict(name=head, kwargs=kwargs), encoder=dict(name="lowdim", kwargs={}),
+      bypass=dict(enabled=bypass, latent_dim=4, hidden=32, beta=1e-3), n_obs_steps=2, horizon=16, n_action_steps=8))
+
+
+def _batch(key, b=8, obs_dim=5, action_dim=3):
+  """Observations and smooth action chunks that are a function of them (something to learn)."""
+  obs = jax.random.uniform(key, (b, 2, obs_dim), minval=-1, maxval=1)
+  t = jnp.arange(16)[None, :, None] * 0.1
+  actions = 0.6 * jnp.sin(obs[:, -1:, :action_dim] * 2.0 + t)
+  return {"obs": obs, "actions": actions}
+
+
+@pytest.mark.parametrize("head", ["diffusion_unet", "flow_unet", "mlp"])
+def test_cross_gradients_are_exactly_zero(head):
+  policy = make_policy(_config(head), 5, 3)
+  params = policy.init(jax.random.PRNGKey(0))
+  batch = _batch(jax.random.PRNGKey(1))
+  key = jax.random.PRNGKey(2)
+
+  def loss_il(p):
+    return policy.loss(p, batch, key)[1]["loss_il"]
+
+  def loss_ib(p):
+    return policy.loss(p, batch, key)[1]["loss_ib"]
+
+  g_ib = jax.grad(loss_ib)(params)
+  g_il = jax.grad(loss_il)(params)
+  for leaf in jax.tree.leaves(g_ib["head"]) + jax.tree.leaves(g_ib["encoder"]):
+    assert np.all(np.asarray(leaf) == 0.0)
+  for leaf in jax.tree.leaves(g_il["p"]) + jax.tree.leaves(g_il["q"]):
+    assert np.all(np.asarray(leaf) == 0.0)
+  # ...while each loss does reach its own parameters.
+  assert any(np.abs(np.asarray(x)).sum() > 0 for x in jax.tree.leaves(g_ib["q"]))
+  assert any(np.abs(np.asarray(x)).sum() > 0 for x in jax.tree.leaves(g_il["head"]))
+
+
+def _train(policy, params, steps, key, lr=3e-3):
+  tx = optax.adamw(lr, b1=0.95, b2=0.999, weight_decay=1e-6)
+  opt = tx.init(params)
+  batch = _batch(jax.random.PRNGKey(11), b=16)
+
+  @jax.jit
+  def step(params, opt, k):
+    (loss, aux), g = jax.value_and_grad(policy.loss, has_aux=True)(params, batch, k)
+    updates, opt = tx.update(g, opt, params)
+    return optax.apply_updates(params, updates), opt, aux["loss_il"]
+
+  losses = []
+  for i in range(steps):
+    params, opt, l = step(params, opt, jax.random.fold_in(key, i))
+    losses.append(float(l))
+  return params, losses
+
+
+def test_bypass_does_not_change_the_base_policy_and_loss_falls():
+  with_bp = make_policy(_config(bypass=True), 5, 3)
+  without = make_policy(_config(bypass=False), 5, 3)
+  p0 = with_bp.init(jax.random.PRNGKey(0))
+  p_with, losses = _train(with_bp, p0, 150, jax.random.PRNGKey(3))
+  p_without, losses_without = _train(without, {"encoder": p0["encoder"], "head": p0["head"]}, 150, jax.random.PRNGKey(3))
+  chex_tol = dict(rtol=1e-5, atol=1e-6)
+  for a, b in zip(jax.tree.leaves(p_with["head"]), jax.tree.leaves(p_without["head"])):
+    np.testing.assert_allclose(a, b, **chex_tol)
+  np.testing.assert_allclose(losses, losses_without, **chex_tol)
+  assert np.mean(losses[-20:]) < 0.5 * np.mean(losses[:5])
+
+
+def test_unknown_head_lists_known_ones():
+  with pytest.raises(ValueError, match="known heads: diffusion_unet, flow_unet, mlp"):
+    registry.make_head("transformer", action_dim=3, horizon=16)
+
+
+@pytest.mark.parametrize("head", ["diffusion_unet", "flow_unet", "mlp"])
+def test_every_head_samples_both_paths(head):
+  policy = make_policy(_config(head), 5, 3)
+  params = policy.init(jax.random.PRNGKey(0))
+  obs = _batch(jax.random.PRNGKey(1))["obs"]
+  a = jax.jit(policy.sample)(params, obs, jax.random.PRNGKey(2))
+  b, z = jax.jit(policy.sample_explore)(params, obs, jax.random.PRNGKey(2), 2.0)
+  assert a.shape == b.shape == (8, 16, 3) and z.shape == (8, 4)
+  assert np.isfinite(np.asarray(a)).all() and np.isfinite(np.asarray(b)).all()

@@ -1,0 +1,91 @@
+"""The compiled fit phase, EMA, data parallelism on forced CPU devices, and checkpoints."""
+
+import json
+import os
+import subprocess
+import sys
+
+import jax
+import jax.numpy as jnp
+import ml_collections
+import numpy as np
+import pytest
+
+from configs import lift
+from soe_jax import buffer as buffer_lib
+from soe_jax import checkpoint, fit, train_state
+from soe_jax.policies import normalizer
+from soe_jax.policies.policy import make_policy
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def _setup(ema=True):
+  config = lift.get_config("smoke")
+  rng = np.random.default_rng(0)
+  n, length, obs_dim = 6, 40, 19
+  t = np.arange(length)[None, :, None] / length
+  obs = rng.uniform(-1, 1, (n, 1, obs_dim)).astype(np.float32) + 0.1 * t.astype(np.float32)
+  actions = np.concatenate([np.sin(3 * t + obs[:, :, :1]), np.zeros((n, length, 9))], -1).astype(np.float32)
+  obs = np.broadcast_to(obs, (n, length, obs_dim)).copy()
+  buf = buffer_lib.add(buffer_lib.create(8, length, obs_dim, 10), obs, actions, np.full(n, length), np.ones(n, bool), 0)
+  norm = normalizer.fit(obs.reshape(-1, obs_dim), actions.reshape(-1, 10))
+  policy = make_policy(config.policy, obs_dim, 10)
+  tx = train_state.make_optimizer(config.fit, config.fit.num_steps)
+  state = train_state.create(policy.init(jax.random.PRNGKey(0)), tx, norm, ema=ema)
+  return config, policy, tx, state, buf
+
+
+def test_ema_decay_follows_diffusion_policy():
+  d = train_state.ema_decay
+  assert float(d(jnp.array(1))) == 0.0
+  np.testing.assert_allclose(float(d(jnp.array(2))), 1 - 2 ** -0.75, rtol=1e-6)
+  np.testing.assert_allclose(float(d(jnp.array(10_001))), 1 - 10_001 ** -0.75, rtol=1e-5)
+  assert float(d(jnp.array(10_000_000))) == pytest.approx(0.9999)
+
+
+def test_fit_runs_in_chunks_loss_falls_and_ema_tracks():
+  config, policy, tx, state, buf = _setup()
+  state, history = fit.fit(policy, tx, state, buf, jax.random.PRNGKey(1), 40, config.fit, progress=False)
+  assert [h["step"] for h in history] == [20, 40] and int(state.step) == 40
+  assert history[-1]["loss"] < history[0]["loss"]
+  diff = [float(jnp.abs(a - b).max()) for a, b in zip(jax.tree.leaves(state.params), jax.tree.leaves(state.ema_params))]
+  assert max(diff) > 0  # the EMA lags the parameters
+
+
+def test_checkpoint_restores_to_identical_samples(tmp_path):
+  config, policy, tx, state, buf = _setup()
+  state, _ = fit.fit(policy, tx, state, buf, jax.random.PRNGKey(1), 20, config.fit, progress=False)
+  checkpoint.save(str(tmp_path / "ckpt"), state, config)
+  loaded = checkpoint.load(str(tmp_path / "ckpt"))
+  obs = jnp.asarray(np.asarray(buf.obs[:3, :2]))
+  direct = checkpoint.LoadedPolicy(policy, state, config).act(obs, jax.random.PRNGKey(5))
+  np.testing.assert_array_equal(loaded.act(obs, jax.random.PRNGKey(5)), direct)
+  assert int(loaded.state.step) == 20
+  with pytest.raises(FileNotFoundError, match="config.json"):
+    checkpoint.load(str(tmp_path / "missing"))
+
+
+_CURVE = """
+import json, sys, jax
+sys.path.insert(0, {root!r}); sys.path.insert(0, {tests!r})
+from test_fit import _setup
+from soe_jax import fit
+config, policy, tx, state, buf = _setup(ema=False)
+state, history = fit.fit(policy, tx, state, buf, jax.random.PRNGKey(1), 40, config.fit, progress=False)
+print(json.dumps(dict(devices=jax.device_count(), losses=[h["loss"] for h in history])))
+"""
+
+
+def _loss_curve(devices: int):
+  env = dict(os.environ, XLA_FLAGS=f"--xla_force_host_platform_device_count={devices}", JAX_PLATFORMS="cpu")
+  code = _CURVE.format(root=ROOT, tests=os.path.dirname(os.path.abspath(__file__)))
+  out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+  return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.slow
+def test_four_devices_give_the_same_loss_curve_as_one():
+  one, four = _loss_curve(1), _loss_curve(4)
+  assert one["devices"] == 1 and four["devices"] == 4
+  np.testing.assert_allclose(four["losses"], one["losses"], rtol=1e-4)
