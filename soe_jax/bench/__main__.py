@@ -30,8 +30,9 @@ BENCHMARKS = ("env", "fit", "sample")
 def main(argv):
   if len(argv) != 2 or argv[1] not in BENCHMARKS:
     raise app.UsageError(f"usage: python -m soe_jax.bench <{'|'.join(BENCHMARKS)}> [flags]; got {argv[1:]}")
-  from soe_jax import compile_cache
+  from soe_jax import compile_cache, sharding
   compile_cache.enable()
+  sharding.maybe_initialize_distributed()
   what = argv[1]
   if what in ("fit", "sample") and FLAGS.config is None:
     raise app.UsageError(f"bench {what} needs --config=configs/<task>.py[:PRESETS]")

@@ -40,11 +40,12 @@ class Policy:
   bypass: bool
   beta: float
   cond_dim: int
+  # A batch of one observation history in the encoder's format (arrays: left out of hashing).
+  example_obs: object = dataclasses.field(default=None, compare=False, hash=False)
 
   def init(self, key) -> dict:
     k_enc, k_head, k_p, k_q = jax.random.split(key, 4)
-    example = jnp.zeros((1, self.n_obs_steps, self.obs_dim))
-    params = {"encoder": self.encoder.init(k_enc, example).get("params", {}),
+    params = {"encoder": self.encoder.init(k_enc, self.example_obs).get("params", {}),
               "head": self.head.init(k_head, self.cond_dim)}
     if self.bypass:
       params["p"] = self.p_net.init(k_p, jnp.zeros((1, self.cond_dim)))["params"]
@@ -100,9 +101,13 @@ def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int
                             **config.head.get("kwargs", {}))
   encoder = encoders.make_encoder(config.encoder.name, **config.encoder.get("kwargs", {}))
   example = jnp.zeros((1, config.n_obs_steps, obs_dim))
+  if config.encoder.name == "image":
+    size = config.encoder.get("image_size", 84)
+    cams = encoder.cameras
+    example = {"images": {c: jnp.zeros((1, config.n_obs_steps, size, size, 3)) for c in cams}, "lowdim": example}
   cond_dim = jax.eval_shape(lambda: encoder.init_with_output(jax.random.PRNGKey(0), example)[0]).shape[-1]
   bp = config.bypass
   return Policy(head=head, encoder=encoder, p_net=vib.Encoder(bp.latent_dim, bp.hidden),
                 q_net=vib.Decoder(cond_dim, bp.hidden), obs_dim=obs_dim, action_dim=action_dim,
                 n_obs_steps=config.n_obs_steps, horizon=config.horizon, n_action_steps=config.n_action_steps,
-                bypass=bool(bp.enabled), beta=float(bp.beta), cond_dim=int(cond_dim))
+                bypass=bool(bp.enabled), beta=float(bp.beta), cond_dim=int(cond_dim), example_obs=example)

@@ -2,6 +2,8 @@
 
 - `lowdim`: the normalised low-dim vectors of the `n_obs_steps` frames, concatenated oldest first
   (no parameters), (B, To, D) -> (B, To * D).
+- `image`: robomimic's ResNet-18 (GroupNorm) + spatial-softmax encoder per camera, concatenated with
+  the low-dim vector per frame (`resnet.py`); observations are then a dict {"images", "lowdim"}.
 """
 
 from __future__ import annotations
@@ -16,7 +18,9 @@ class LowDimEncoder(nn.Module):
     return obs.reshape(obs.shape[:-2] + (obs.shape[-2] * obs.shape[-1],))
 
 
-ENCODERS = {"lowdim": LowDimEncoder}
+from soe_jax.policies.nets.resnet import ImageEncoder  # noqa: E402
+
+ENCODERS = {"lowdim": LowDimEncoder, "image": ImageEncoder}
 
 
 def make_encoder(name: str, **kwargs) -> nn.Module:

@@ -1,0 +1,102 @@
+"""robomimic's image encoder as Diffusion Policy's hybrid policy uses it (`shared/specs/diffusion_policy.md` 5):
+per camera a ResNet-18 trunk (avgpool and fc removed, random init) with every BatchNorm replaced by
+GroupNorm(C // 16 groups), spatial softmax to 32 keypoints (expected x, y over a [-1, 1] grid),
+Linear(64, 64) and a ReLU. Random crop (76 of 84 by default) in training, centre crop in evaluation,
+drawn independently per image. Images arrive in [0, 1] and are scaled to [-1, 1]. NHWC."""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+
+
+def _gn(x):
+  return nn.GroupNorm(num_groups=x.shape[-1] // 16, epsilon=1e-5)(x)
+
+
+class BasicBlock(nn.Module):
+  features: int
+  stride: int = 1
+
+  @nn.compact
+  def __call__(self, x):
+    h = nn.Conv(self.features, (3, 3), (self.stride, self.stride), padding=1, use_bias=False)(x)
+    h = jax.nn.relu(_gn(h))
+    h = _gn(nn.Conv(self.features, (3, 3), padding=1, use_bias=False)(h))
+    if self.stride != 1 or x.shape[-1] != self.features:
+      x = _gn(nn.Conv(self.features, (1, 1), (self.stride, self.stride), use_bias=False)(x))
+    return jax.nn.relu(h + x)
+
+
+class ResNet18Trunk(nn.Module):
+  @nn.compact
+  def __call__(self, x):
+    x = nn.Conv(64, (7, 7), (2, 2), padding=3, use_bias=False)(x)
+    x = jax.nn.relu(_gn(x))
+    x = nn.max_pool(x, (3, 3), (2, 2), padding=((1, 1), (1, 1)))
+    for i, f in enumerate((64, 128, 256, 512)):
+      x = BasicBlock(f, 1 if i == 0 else 2)(x)
+      x = BasicBlock(f)(x)
+    return x
+
+
+class SpatialSoftmax(nn.Module):
+  num_keypoints: int = 32
+
+  @nn.compact
+  def __call__(self, x):
+    h, w = x.shape[-3], x.shape[-2]
+    logits = nn.Conv(self.num_keypoints, (1, 1))(x)  # (..., H, W, K)
+    logits = logits.reshape(x.shape[:-3] + (h * w, self.num_keypoints))
+    attn = jax.nn.softmax(logits, axis=-2)
+    gy, gx = jnp.meshgrid(jnp.linspace(-1, 1, h), jnp.linspace(-1, 1, w), indexing="ij")
+    pos = jnp.stack([gx.ravel(), gy.ravel()], -1)  # (H*W, 2): x then y
+    keypoints = jnp.einsum("...nk,nc->...kc", attn, pos)
+    return keypoints.reshape(x.shape[:-3] + (2 * self.num_keypoints,))
+
+
+class CameraEncoder(nn.Module):
+  feature_dim: int = 64
+
+  @nn.compact
+  def __call__(self, image):
+    x = SpatialSoftmax()(ResNet18Trunk()(image))
+    return jax.nn.relu(nn.Dense(self.feature_dim)(x))
+
+
+def crop(images, size: int, train: bool, key=None):
+  """(..., H, W, C) -> (..., size, size, C): uniform random offsets per image in training, centre otherwise."""
+  h, w = images.shape[-3], images.shape[-2]
+  if not train:
+    top, left = (h - size) // 2, (w - size) // 2
+    return images[..., top:top + size, left:left + size, :]
+  lead = images.shape[:-3]
+  flat = images.reshape((-1,) + images.shape[-3:])
+  k_top, k_left = jax.random.split(key)
+  tops = jax.random.randint(k_top, (flat.shape[0],), 0, h - size + 1)
+  lefts = jax.random.randint(k_left, (flat.shape[0],), 0, w - size + 1)
+  out = jax.vmap(lambda im, t, l: jax.lax.dynamic_slice(im, (t, l, 0), (size, size, im.shape[-1])))(flat, tops, lefts)
+  return out.reshape(lead + out.shape[1:])
+
+
+class ImageEncoder(nn.Module):
+  """obs {"images": {camera: (B, To, H, W, 3) in [0, 1]}, "lowdim": (B, To, D) normalised} -> (B, To * (64 n_cams + D)).
+
+  Cameras are encoded in the order of `cameras`, then the low-dim vector, per frame, frames oldest first."""
+  cameras: Sequence[str] = ("agentview_image", "robot0_eye_in_hand_image")
+  crop_size: int = 76
+
+  @nn.compact
+  def __call__(self, obs, train: bool = False):
+    feats = []
+    for i, cam in enumerate(self.cameras):
+      images = obs["images"][cam] * 2.0 - 1.0
+      key = self.make_rng("crop") if train else None
+      images = crop(images, self.crop_size, train, key)
+      flat = images.reshape((-1,) + images.shape[-3:])  # frames as one batch, as Diffusion Policy does
+      feats.append(CameraEncoder(name=f"camera_{i}")(flat).reshape(images.shape[:-3] + (-1,)))
+    per_frame = jnp.concatenate(feats + [obs["lowdim"]], axis=-1)
+    return per_frame.reshape(per_frame.shape[:-2] + (-1,))

@@ -1,0 +1,34 @@
+"""The image encoder: robomimic's size per camera, crops, and use as the policy's encoder."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from soe_jax.policies.nets import resnet
+
+
+def test_camera_encoder_size_and_output():
+  enc = resnet.CameraEncoder()
+  shapes = jax.eval_shape(enc.init, jax.random.PRNGKey(0), jnp.zeros((1, 76, 76, 3)))
+  params = sum(int(np.prod(x.shape)) for x in jax.tree.leaves(shapes))
+  assert 11.1e6 < params < 11.3e6  # robomimic: about 11.20M per camera
+
+
+def test_random_crop_in_training_centre_crop_in_evaluation():
+  images = jnp.arange(2 * 3 * 84 * 84, dtype=jnp.float32).reshape(2, 3, 84, 84, 1)
+  centre = resnet.crop(images, 76, train=False)
+  np.testing.assert_array_equal(centre, images[:, :, 4:80, 4:80])
+  a = resnet.crop(images, 76, train=True, key=jax.random.PRNGKey(0))
+  b = resnet.crop(images, 76, train=True, key=jax.random.PRNGKey(1))
+  assert a.shape == (2, 3, 76, 76, 1)
+  assert not np.array_equal(a, b)
+  offsets = {(int(x[0, 0, 0]) % (84 * 84)) for x in np.asarray(a).reshape(6, 76, 76, 1)}
+  assert len(offsets) > 1  # independent per image
+
+
+def test_image_encoder_concatenates_cameras_and_lowdim_per_frame():
+  enc = resnet.ImageEncoder(cameras=("agentview_image",), crop_size=24)
+  obs = {"images": {"agentview_image": jnp.zeros((2, 2, 28, 28, 3))}, "lowdim": jnp.ones((2, 2, 9))}
+  out, params = enc.init_with_output({"params": jax.random.PRNGKey(0), "crop": jax.random.PRNGKey(1)}, obs, train=True)
+  assert out.shape == (2, 2 * (64 + 9))
+  np.testing.assert_array_equal(out.reshape(2, 2, 73)[..., 64:], 1.0)
