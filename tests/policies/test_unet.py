@@ -24,8 +24,8 @@ def test_im2col_conv_equals_xla_convolution():
   for k, stride, pad in ((5, 1, 2), (3, 2, 1), (1, 1, 0)):
     layer = Conv1d(7, k, stride=stride, padding=pad)
     params = layer.init(jax.random.PRNGKey(1), x)
-    w, b = params["params"]["kernel"], params["params"]["bias"]
-    ref = jax.lax.conv_general_dilated(x, w, (stride,), [(pad, pad)], dimension_numbers=("NWC", "WIO", "NWC")) + b
+    w, b = params["params"]["kernel"], params["params"]["bias"]  # PyTorch layout (out, in, k)
+    ref = jax.lax.conv_general_dilated(x, w, (stride,), [(pad, pad)], dimension_numbers=("NWC", "OIW", "NWC")) + b
     np.testing.assert_allclose(layer.apply(params, x), ref, atol=1e-5)
 
 
@@ -33,10 +33,10 @@ def test_polyphase_upsample_equals_transposed_convolution():
   x = jax.random.normal(jax.random.PRNGKey(0), (2, 4, 6))
   layer = ConvTranspose1d(6)
   params = layer.init(jax.random.PRNGKey(1), x)
-  w, b = params["params"]["kernel"], params["params"]["bias"]  # (k, in, out), PyTorch tap order
+  w, b = params["params"]["kernel"], params["params"]["bias"]  # (k, out, in), PyTorch tap order
   # PyTorch ConvTranspose1d(k=4, stride=2, padding=1): dilate the input by 2, pad k-1-p = 2, flip the taps.
   ref = jax.lax.conv_general_dilated(x, w[::-1], (1,), [(2, 2)], lhs_dilation=(2,),
-                                     dimension_numbers=("NWC", "WIO", "NWC")) + b
+                                     dimension_numbers=("NWC", "WOI", "NWC")) + b
   out = layer.apply(params, x)
   assert out.shape == (2, 8, 6)
   np.testing.assert_allclose(out, ref, atol=1e-5)

@@ -3,8 +3,12 @@
 `Conv1d` is an im2col gather plus one matrix product: XLA:CPU takes a slow path (a few GFLOP/s) for a
 1-D convolution whose kernel is longer than its input (kernel 5 on the UNet's 4-step deepest level),
 while a matrix product runs at full speed. `ConvTranspose1d` (kernel 4, stride 2, padding 1) is
-written in polyphase form, one matrix product over [x[m-1], x[m], x[m+1]], because the backward pass
+written in polyphase form, four matrix products over x[m-1], x[m], x[m+1], because the backward pass
 of XLA's transposed convolution is very slow on CPU. Both keep PyTorch's parameter count.
+
+Weights are stored (out, in) as PyTorch does, and products contract over the minor axis of both
+operands: measured here, XLA:CPU reads weights about twice as fast that way when a batch has few
+rows (sampling one observation), and equally fast for training batches.
 Tensors are channels-last: (B, T, C).
 """
 
@@ -29,15 +33,20 @@ def mish(x):
   return x * jnp.tanh(jax.nn.softplus(x))
 
 
+def _matmul_t(x, w):
+  """x (..., K) times w (N, K) transposed -> (..., N)."""
+  return jnp.einsum("...k,nk->...n", x, w)
+
+
 class Dense(nn.Module):
   features: int
 
   @nn.compact
   def __call__(self, x):
     fan_in = x.shape[-1]
-    w = self.param("kernel", torch_uniform(fan_in), (fan_in, self.features))
+    w = self.param("kernel", torch_uniform(fan_in), (self.features, fan_in))
     b = self.param("bias", torch_uniform(fan_in), (self.features,))
-    return x @ w + b
+    return _matmul_t(x, w) + b
 
 
 class Conv1d(nn.Module):
@@ -52,15 +61,15 @@ class Conv1d(nn.Module):
     k, c = self.kernel_size, x.shape[-1]
     pad = self.kernel_size // 2 if self.padding is None else self.padding
     fan_in = c * k
-    w = self.param("kernel", torch_uniform(fan_in), (k, c, self.features))
+    w = self.param("kernel", torch_uniform(fan_in), (self.features, c, k))  # PyTorch's Conv1d layout
     b = self.param("bias", torch_uniform(fan_in), (self.features,))
     if k == 1 and self.stride == 1 and pad == 0:
-      return x @ w[0] + b
+      return _matmul_t(x, w[:, :, 0]) + b
     t_out = (x.shape[-2] + 2 * pad - k) // self.stride + 1
     xp = jnp.pad(x, [(0, 0)] * (x.ndim - 2) + [(pad, pad), (0, 0)])
     cols = [xp[..., i:i + self.stride * (t_out - 1) + 1:self.stride, :] for i in range(k)]
-    patches = jnp.concatenate(cols, axis=-1)  # (B, T_out, k * C), tap-major like w.reshape
-    return patches @ w.reshape(k * c, self.features) + b
+    patches = jnp.stack(cols, axis=-1).reshape(x.shape[:-2] + (t_out, c * k))  # (B, T_out, C * k)
+    return _matmul_t(patches, w.reshape(self.features, c * k)) + b
 
 
 class ConvTranspose1d(nn.Module):
@@ -74,19 +83,14 @@ class ConvTranspose1d(nn.Module):
     c = x.shape[-1]
     # PyTorch's ConvTranspose1d fan_in is computed from weight dim 1 (out channels) * kernel.
     fan_in = self.features * 4
-    w = self.param("kernel", torch_uniform(fan_in), (4, c, self.features))
+    w = self.param("kernel", torch_uniform(fan_in), (4, self.features, c))  # tap-major, (out, in) per tap
     b = self.param("bias", torch_uniform(fan_in), (self.features,))
-    zeros = jnp.zeros_like(w[0])
-    w_big = jnp.concatenate([
-        jnp.concatenate([w[3], zeros], axis=1),  # x[m-1]
-        jnp.concatenate([w[1], w[2]], axis=1),  # x[m]
-        jnp.concatenate([zeros, w[0]], axis=1),  # x[m+1]
-    ], axis=0)  # (3C, 2F): columns [even outputs | odd outputs]
     pad = [(0, 0)] * (x.ndim - 2)
     x_prev = jnp.pad(x[..., :-1, :], pad + [(1, 0), (0, 0)])
     x_next = jnp.pad(x[..., 1:, :], pad + [(0, 1), (0, 0)])
-    y = jnp.concatenate([x_prev, x, x_next], axis=-1) @ w_big  # (B, T, 2F)
-    y = y.reshape(x.shape[:-1] + (2, self.features))
+    even = _matmul_t(x, w[1]) + _matmul_t(x_prev, w[3])
+    odd = _matmul_t(x_next, w[0]) + _matmul_t(x, w[2])
+    y = jnp.stack([even, odd], axis=-2)  # (B, T, 2, F)
     return y.reshape(x.shape[:-2] + (2 * x.shape[-2], self.features)) + b
 
 
