@@ -58,3 +58,31 @@ def test_sampling_is_a_pure_function_of_the_key_and_calls_the_hook():
   np.testing.assert_array_equal(a, b)
   assert not np.allclose(a, c)
   assert len(calls) >= 1  # traced inside the scan: the hook is part of every denoising call
+
+
+def test_diffusion_head_samples_both_modes_of_a_bimodal_target():
+  import optax
+  from soe_jax.policies import registry
+
+  head = registry.make_head("diffusion_unet", action_dim=1, horizon=4, down_dims=(16, 32, 64), step_embed_dim=32)
+  params = head.init(jax.random.PRNGKey(0), 1)
+  tx = optax.adam(3e-3)
+  opt = tx.init(params)
+  cond = jnp.zeros((256, 1))
+
+  @jax.jit
+  def step(params, opt, key):
+    k_mode, k_loss = jax.random.split(key)
+    actions = jnp.where(jax.random.bernoulli(k_mode, 0.5, (256, 1, 1)), 0.5, -0.5) * jnp.ones((256, 4, 1))
+    loss, g = jax.value_and_grad(lambda p: head.loss(p, cond, actions, k_loss)[0])(params)
+    updates, opt = tx.update(g, opt)
+    return optax.apply_updates(params, updates), opt, loss
+
+  for i in range(400):
+    params, opt, _ = step(params, opt, jax.random.PRNGKey(i))
+  samples, _ = jax.jit(head.sample)(params, jnp.zeros((400, 1)), jax.random.PRNGKey(99))
+  x = np.asarray(samples[:, :, 0].mean(1))
+  upper = np.abs(x - 0.5) < 0.15
+  lower = np.abs(x + 0.5) < 0.15
+  assert (upper | lower).mean() > 0.9  # near a mode, not averaged in between
+  assert 0.25 < upper.mean() < 0.75 and 0.25 < lower.mean() < 0.75  # both modes
