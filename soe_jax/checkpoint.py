@@ -17,17 +17,18 @@ import ml_collections
 import orbax.checkpoint as ocp
 
 from soe_jax import train_state
+from soe_jax.envs import controller, registry
 from soe_jax.policies import normalizer as normalizer_lib
 from soe_jax.policies.policy import Policy, make_policy
 
 STATE_DIR = "state"
 CONFIG_FILE = "config.json"
-ACTION_DIM = 10
 
 
-def _obs_dim(config) -> int:
-  from soe_jax.envs import registry
-  return 9 + registry._factory(config.env.task).object_dim
+def policy_from_config(config: ml_collections.ConfigDict) -> Policy:
+  """The policy a run's config describes, sized for its task and action mode."""
+  return make_policy(config.policy, registry.observation_size(config.env.task),
+                     controller.action_size(config.env.action_mode))
 
 
 def abstract_state(config: ml_collections.ConfigDict, policy: Policy) -> train_state.TrainState:
@@ -76,7 +77,7 @@ def load(directory: str) -> LoadedPolicy:
     raise FileNotFoundError(f"no checkpoint at {directory!r}: {CONFIG_FILE} is missing")
   with open(config_path) as f:
     config = ml_collections.ConfigDict(json.load(f))
-  policy = make_policy(config.policy, _obs_dim(config), ACTION_DIM)
+  policy = policy_from_config(config)
   target = abstract_state(config, policy)
   state = ocp.StandardCheckpointer().restore(os.path.join(directory, STATE_DIR), target)
   return LoadedPolicy(policy, state, config)

@@ -14,18 +14,10 @@ import ml_collections
 import numpy as np
 
 from soe_jax import buffer as buffer_lib
+from soe_jax import checkpoint
 from soe_jax import fit as fit_lib
 from soe_jax import train_state
-from soe_jax.envs import registry as env_registry
 from soe_jax.policies import normalizer as normalizer_lib
-from soe_jax.policies.policy import make_policy
-
-ACTION_DIM = 10
-
-
-def _obs_dim(config) -> int:
-  env_cls = env_registry._factory(config.env.task)
-  return 9 + env_cls.object_dim
 
 
 def _param_count(tree) -> int:
@@ -33,15 +25,15 @@ def _param_count(tree) -> int:
 
 
 def _random_setup(config, key):
-  obs_dim = _obs_dim(config)
-  policy = make_policy(config.policy, obs_dim, ACTION_DIM)
+  policy = checkpoint.policy_from_config(config)
+  obs_dim, action_dim = policy.obs_dim, policy.action_dim
   rng = np.random.default_rng(0)
   n, length = 64, 120
   obs = rng.uniform(-1, 1, (n, length, obs_dim)).astype(np.float32)
-  actions = rng.uniform(-1, 1, (n, length, ACTION_DIM)).astype(np.float32)
-  buf = buffer_lib.add(buffer_lib.create(n, length, obs_dim, ACTION_DIM), obs, actions, np.full(n, length),
+  actions = rng.uniform(-1, 1, (n, length, action_dim)).astype(np.float32)
+  buf = buffer_lib.add(buffer_lib.create(n, length, obs_dim, action_dim), obs, actions, np.full(n, length),
                        np.ones(n, bool), 0)
-  norm = normalizer_lib.fit(obs.reshape(-1, obs_dim), actions.reshape(-1, ACTION_DIM))
+  norm = normalizer_lib.fit(obs.reshape(-1, obs_dim), actions.reshape(-1, action_dim))
   return policy, policy.init(key), buf, norm
 
 

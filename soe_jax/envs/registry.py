@@ -25,6 +25,11 @@ def _factory(name: str):
   return _ENVS[name]
 
 
+def observation_size(name: str) -> int:
+  """The policy's observation size for task `name` (19 for lift, 23 for can and square)."""
+  return 9 + _factory(name).object_dim
+
+
 def default_config(name: str) -> ml_collections.ConfigDict:
   return _factory(name).default_config()
 
