@@ -1,6 +1,6 @@
 """Benchmarks, each printing one JSON object as its last line.
 
-  python -m soe_jax.bench env --task=square --num_envs=256 [--backend=mujoco|mjx]
+  python -m soe_jax.bench env --task=square --num_envs=256 [--backend=mujoco|mjx] [--num_envs=1 --unbatched]
   python -m soe_jax.bench fit --config=configs/square.py [--bypass=on|off] [--ema=on|off]
   python -m soe_jax.bench sample --config=configs/square.py --batch=1 --steps=10
 """
@@ -15,6 +15,7 @@ from ml_collections import config_flags
 flags.DEFINE_string("task", "lift", "Task name (env).")
 flags.DEFINE_integer("num_envs", 64, "Batch of environments (env).")
 flags.DEFINE_string("backend", "auto", "Physics backend: auto, mujoco or mjx (env).")
+flags.DEFINE_bool("unbatched", False, "env: one environment stepped without vmap.")
 flags.DEFINE_integer("steps", None, "env: control steps per compiled call (default 20 mujoco, 2 mjx); "
                      "fit: SGD steps per timed chunk (default 10); sample: denoising steps (default 10).")
 flags.DEFINE_integer("repeats", None, "Timed calls.")
@@ -38,7 +39,7 @@ def main(argv):
     raise app.UsageError(f"bench {what} needs --config=configs/<task>.py[:PRESETS]")
   if what == "env":
     from soe_jax.bench import env
-    result = env.run(FLAGS.task, FLAGS.num_envs, FLAGS.backend, FLAGS.steps, FLAGS.repeats or 3)
+    result = env.run(FLAGS.task, FLAGS.num_envs, FLAGS.backend, FLAGS.steps, FLAGS.repeats or 3, FLAGS.unbatched)
   elif what == "fit":
     from soe_jax.bench import policy
     result = policy.fit(FLAGS.config, FLAGS.bypass == "on", FLAGS.ema == "on", FLAGS.steps or 10, FLAGS.repeats or 2)

@@ -25,14 +25,20 @@ def _motion(obs0, t):
   return jnp.concatenate([pos, rot6d, grip[None]])
 
 
-def run(task: str, num_envs: int, backend: str = "auto", steps: int | None = None, repeats: int = 3) -> dict:
+def run(task: str, num_envs: int, backend: str = "auto", steps: int | None = None, repeats: int = 3,
+        unbatched: bool = False) -> dict:
+  """`unbatched`: one environment stepped without `vmap` (MJX on a CPU is much slower under vmap)."""
+  if unbatched and num_envs != 1:
+    raise ValueError(f"unbatched runs one environment; got num_envs={num_envs}")
   env = make_env(task, backend=backend)
   steps = steps or (20 if env.backend == "mujoco" else 2)
-  keys = jax.random.split(jax.random.PRNGKey(0), num_envs)
-  state = jax.jit(jax.vmap(env.reset))(keys)
+  if unbatched:
+    state = jax.jit(env.reset)(jax.random.PRNGKey(0))
+    step, motion = env.step, _motion
+  else:
+    state = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), num_envs))
+    step, motion = jax.vmap(env.step), jax.vmap(_motion, in_axes=(0, None))
   obs0 = state.obs
-  step = jax.vmap(env.step)
-  motion = jax.vmap(_motion, in_axes=(0, None))
 
   def chunk(state, t0):
     def body(s, t):
@@ -53,9 +59,10 @@ def run(task: str, num_envs: int, backend: str = "auto", steps: int | None = Non
   jax.block_until_ready(state)
   total = time.perf_counter() - t
   n = num_envs * steps * repeats
-  result = dict(task=task, num_envs=num_envs, backend=env.backend, control_steps_per_s=round(n / total, 1),
+  result = dict(task=task, num_envs=num_envs, backend=env.backend, unbatched=unbatched,
+                control_steps_per_s=round(n / total, 2),
                 physics_steps_per_s=round(n * env.config.nsubsteps / total, 1), compile_s=round(compile_s, 2))
-  if env.backend == "mujoco":
+  if env.backend == "mujoco" and not unbatched:
     result["split_s_per_1k_control_steps"] = _split(env, state, total, n, physics)
   return result
 

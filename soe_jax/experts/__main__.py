@@ -26,7 +26,6 @@ def main(argv):
   from soe_jax import compile_cache
   compile_cache.enable()
   import jax
-  import numpy as np
 
   from soe_jax.data import hdf5
   from soe_jax.envs import make_env

@@ -9,7 +9,8 @@
 from __future__ import annotations
 
 import flax.linen as nn
-import jax.numpy as jnp
+
+from soe_jax.policies.nets.resnet import ImageEncoder
 
 
 class LowDimEncoder(nn.Module):
@@ -17,8 +18,6 @@ class LowDimEncoder(nn.Module):
   def __call__(self, obs, train: bool = False):
     return obs.reshape(obs.shape[:-2] + (obs.shape[-2] * obs.shape[-1],))
 
-
-from soe_jax.policies.nets.resnet import ImageEncoder  # noqa: E402
 
 ENCODERS = {"lowdim": LowDimEncoder, "image": ImageEncoder}
 
