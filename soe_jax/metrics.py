@@ -1,0 +1,73 @@
+"""The paper's metrics as pure functions on rollout outputs (DESIGN.md, "Metrics").
+
+- Success rate with its episode count and a 95% Wilson interval.
+- Pass@k: the fraction of start states with at least one success among their k tries.
+- Rollouts: per start state, tries up to and including the first success (k if none); the sum over
+  start states (the paper's "rollout num") and the mean per start state. Tries may run in parallel;
+  the count is what a robot doing them one after another would spend.
+- Average jerk: per episode, the mean over its third differences of ||d^3 p / dt^3|| of the measured
+  end-effector position at the control rate (dt = 0.05 s), over the whole episode (to success or the
+  horizon); then the mean over episodes.
+- Relative improvement (after - before) / before, always with the absolute difference beside it (and
+  alone when before is 0).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+CONTROL_DT = 0.05
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+  """95% Wilson score interval for a binomial proportion (0, 1) when n is 0."""
+  if n == 0:
+    return 0.0, 1.0
+  p = successes / n
+  denom = 1 + z * z / n
+  centre = (p + z * z / (2 * n)) / denom
+  half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+  return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def success_rate(success) -> dict:
+  """success (N,) bool -> {rate, num_episodes, wilson_low, wilson_high}."""
+  s = np.asarray(success, bool).ravel()
+  low, high = wilson_interval(int(s.sum()), s.size)
+  return dict(rate=float(s.mean()) if s.size else 0.0, num_episodes=int(s.size), wilson_low=low, wilson_high=high)
+
+
+def pass_at_k(success) -> float:
+  """success (S, k): tries per start state -> fraction of start states with any success."""
+  s = np.asarray(success, bool)
+  return float(s.any(axis=1).mean())
+
+
+def rollouts(success) -> dict:
+  """success (S, k) -> {sum, mean, per_state (S,)}: tries up to and including the first success, k if none."""
+  s = np.asarray(success, bool)
+  k = s.shape[1]
+  first = np.where(s.any(axis=1), s.argmax(axis=1) + 1, k)
+  return dict(sum=int(first.sum()), mean=float(first.mean()), per_state=first)
+
+
+def episode_jerk(positions, length: int | None = None, dt: float = CONTROL_DT) -> float:
+  """positions (T, 3) (padded beyond `length`) -> mean ||third difference|| / dt^3 over the episode."""
+  p = np.asarray(positions, np.float64)
+  p = p[: length if length is not None else p.shape[0]]
+  if p.shape[0] < 4:
+    return 0.0
+  third = np.diff(p, n=3, axis=0) / dt**3
+  return float(np.linalg.norm(third, axis=-1).mean())
+
+
+def average_jerk(positions, lengths, dt: float = CONTROL_DT) -> float:
+  """positions (N, T, 3), lengths (N,) -> the mean over episodes of each episode's jerk."""
+  return float(np.mean([episode_jerk(p, int(l), dt) for p, l in zip(positions, lengths)]))
+
+
+def relative_improvement(before: float, after: float) -> dict:
+  """{absolute, relative}; relative is None when `before` is 0 (only the absolute difference is shown)."""
+  return dict(absolute=after - before, relative=None if before == 0 else (after - before) / before)

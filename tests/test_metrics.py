@@ -1,0 +1,46 @@
+"""Metrics on hand-made outcome tables and paths."""
+
+import numpy as np
+
+from soe_jax import metrics
+
+
+def test_pass_at_k_and_rollouts_on_outcome_tables():
+  table = np.array([[0, 0, 1, 0, 1],   # first success on try 3
+                    [1, 1, 1, 1, 1],   # on try 1
+                    [0, 0, 0, 0, 0],   # never: counts all 5 tries
+                    [0, 0, 0, 0, 1]], bool)
+  assert metrics.pass_at_k(table) == 0.75
+  r = metrics.rollouts(table)
+  np.testing.assert_array_equal(r["per_state"], [3, 1, 5, 5])
+  assert r["sum"] == 14 and r["mean"] == 3.5
+  none, every = np.zeros((3, 5), bool), np.ones((3, 5), bool)
+  assert metrics.pass_at_k(none) == 0.0 and metrics.rollouts(none)["sum"] == 15
+  assert metrics.pass_at_k(every) == 1.0 and metrics.rollouts(every)["sum"] == 3
+
+
+def test_success_rate_reports_count_and_wilson_interval():
+  r = metrics.success_rate([True] * 8 + [False] * 2)
+  assert r["rate"] == 0.8 and r["num_episodes"] == 10
+  np.testing.assert_allclose([r["wilson_low"], r["wilson_high"]], [0.4902, 0.9433], atol=1e-4)
+  assert metrics.success_rate([False] * 5)["wilson_low"] == 0.0
+  assert metrics.success_rate([True] * 5)["wilson_high"] == 1.0
+
+
+def test_jerk_is_zero_for_a_quadratic_and_exact_for_a_cubic():
+  t = np.arange(40) * metrics.CONTROL_DT
+  quad = np.stack([3 * t**2 - t, 0.5 * t**2, np.ones_like(t)], -1)
+  assert abs(metrics.episode_jerk(quad)) < 1e-6
+  cubic = np.stack([2 * t**3, -t**3, t**2], -1)  # third derivative (12, -6, 0): norm sqrt(180)
+  np.testing.assert_allclose(metrics.episode_jerk(cubic), np.sqrt(180.0), rtol=1e-6)
+  # Padding past an episode's length is ignored; episodes are averaged.
+  padded = np.concatenate([cubic, np.full((10, 3), 99.0)])
+  np.testing.assert_allclose(metrics.average_jerk(np.stack([padded, np.concatenate([quad, quad[:10]])]), [40, 40]),
+                             np.sqrt(180.0) / 2, rtol=1e-6)
+
+
+def test_relative_improvement_keeps_the_absolute_difference():
+  r = metrics.relative_improvement(0.4, 0.6)
+  np.testing.assert_allclose([r["absolute"], r["relative"]], [0.2, 0.5])
+  r = metrics.relative_improvement(0.0, 0.3)
+  assert r["relative"] is None and r["absolute"] == 0.3
