@@ -1,0 +1,1 @@
+"""Exploration: strategies and steering."""

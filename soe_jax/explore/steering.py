@@ -1,0 +1,57 @@
+"""Steering's math (DESIGN.md, "Steering"), pure and jittable.
+
+- SNR per latent dimension over a set of observations: SNR_i = Var(mu_i) / E[sigma_i^2], in dB.
+- Effective dimensions: SNR_dB above one task-agnostic threshold (default 0 dB).
+- Proposals along dimension i: z = mu except z_i ~ N(mu_i, (alpha sigma_i)^2), a batch of them.
+- Farthest point sampling over the decoded chunks' end-effector paths picks a small diverse set;
+  the distance between two paths is the mean L2 distance between their positions step by step.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+
+def snr_db(mu: jax.Array, log_std: jax.Array) -> jax.Array:
+  """mu, log_std (N, d) over N observations -> (d,) SNR in dB."""
+  signal = jnp.var(mu, axis=0)
+  noise = jnp.mean(jnp.exp(2.0 * log_std), axis=0)
+  return 10.0 * jnp.log10(signal / noise)
+
+
+def effective_dims(snr: jax.Array, threshold_db: float = 0.0) -> jax.Array:
+  """(d,) bool: the dimensions whose SNR exceeds the threshold."""
+  return snr > threshold_db
+
+
+def dimension_proposals(mu: jax.Array, log_std: jax.Array, dim: int | jax.Array, key: jax.Array, num: int,
+                        alpha: float = 1.0) -> jax.Array:
+  """mu, log_std (d,) for one observation -> (num, d) latents varying only dimension `dim`."""
+  z = jnp.broadcast_to(mu, (num,) + mu.shape)
+  sample = mu[dim] + alpha * jnp.exp(log_std[dim]) * jax.random.normal(key, (num,))
+  return z.at[:, dim].set(sample)
+
+
+def path_distances(paths: jax.Array) -> jax.Array:
+  """paths (P, T, 3) -> (P, P) mean over steps of the L2 distance between positions."""
+  diff = paths[:, None] - paths[None]
+  return jnp.mean(jnp.linalg.norm(diff, axis=-1), axis=-1)
+
+
+def farthest_point_sampling(paths: jax.Array, num: int, first: int = 0) -> jax.Array:
+  """Indices (num,) of a diverse subset: start at `first`, then repeatedly the path farthest from all
+  chosen ones. Chosen paths are never picked again (num must not exceed P)."""
+  dist = path_distances(paths)
+  p = paths.shape[0]
+  if num > p:
+    raise ValueError(f"cannot pick {num} of {p} proposals")
+
+  def body(carry, _):
+    chosen_mask, min_dist = carry
+    nxt = jnp.argmax(jnp.where(chosen_mask, -jnp.inf, min_dist))
+    return (chosen_mask.at[nxt].set(True), jnp.minimum(min_dist, dist[nxt])), nxt
+
+  start = (jnp.zeros(p, bool).at[first].set(True), dist[first])
+  _, rest = jax.lax.scan(body, start, None, length=num - 1)
+  return jnp.concatenate([jnp.array([first]), rest])
