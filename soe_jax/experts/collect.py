@@ -15,7 +15,9 @@ from soe_jax.experts import script
 RECORDED_KEYS = manipulation.POLICY_OBS_KEYS + ("robot0_joint_pos",)
 
 
+@functools.lru_cache(maxsize=8)
 def _chunk_fn(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, length: int):
+  """One compiled chunk of `length` control steps of the batched environment and demonstrator."""
   step = jax.vmap(env.step)
   act = jax.vmap(expert.act)
 
@@ -35,11 +37,6 @@ def _chunk_fn(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, 
   return run
 
 
-@functools.lru_cache(maxsize=8)
-def _cached_chunk_fn(env, expert, length):
-  return _chunk_fn(env, expert, length)
-
-
 def run_demos(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, keys: jax.Array,
               chunk: int = 50, progress: bool = True) -> dict:
   """Demonstrations from the start states of `keys` (N, 2), each until success or the horizon.
@@ -55,7 +52,7 @@ def run_demos(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, 
   es = jax.jit(jax.vmap(expert.init))(state.obs, key_expert)
   n = keys.shape[0]
   carry = (state, es, jnp.zeros(n, bool), jnp.zeros(n, jnp.int32))
-  run = _cached_chunk_fn(env, expert, chunk)
+  run = _chunk_fn(env, expert, chunk)
   records = []
   num_chunks = -(-env.horizon // chunk)
   bar = tqdm.tqdm(total=num_chunks * chunk, desc=f"{env.name} demos", unit="step", disable=not progress, leave=False)
