@@ -13,6 +13,7 @@ import json
 import os
 
 import jax
+import jax.numpy as jnp
 import ml_collections
 import orbax.checkpoint as ocp
 
@@ -37,7 +38,8 @@ def abstract_state(config: ml_collections.ConfigDict, policy: Policy) -> train_s
 
   def build():
     params = policy.init(jax.random.PRNGKey(0))
-    norm = normalizer_lib.Normalizer(*(jax.numpy.zeros(n) for n in (policy.obs_dim,) * 2 + (policy.action_dim,) * 2))
+    obs, act = jnp.zeros(policy.obs_dim), jnp.zeros(policy.action_dim)
+    norm = normalizer_lib.Normalizer(obs_scale=obs, obs_offset=obs, act_scale=act, act_offset=act)
     return train_state.create(params, tx, norm, ema=config.fit.ema)
 
   return jax.eval_shape(build)

@@ -13,6 +13,7 @@ code, so the same task runs on either.
 
 from __future__ import annotations
 
+import logging
 import os
 import threading
 import time
@@ -98,6 +99,9 @@ class MujocoBackend:
     self._qvel = slice(1 + model.nq, 1 + model.nq + model.nv)
     self.physics_seconds = 0.0  # time spent inside the C engine, for benchmarks
     self.callback_seconds = 0.0  # time spent inside the step callback, conversion included
+    # MuJoCo resets an environment whose accelerations blow up and only logs it to MUJOCO_LOG.TXT;
+    # count those events so that they are reported instead of passing silently.
+    self.instabilities = 0
 
   # -- host side ------------------------------------------------------------------------------
   def _host_init(self, qpos, qvel):
@@ -123,6 +127,7 @@ class MujocoBackend:
                             nstep=self.nsubsteps, skip_checks=True, sensordata=np.empty((n, self.nsubsteps, 0)),
                             chunk_size=max(1, n // (4 * self.nthread)))
     t2 = time.perf_counter()
+    self._check_instabilities()
     s1 = np.ascontiguousarray(out[:, -1])
     result = (s1.view(np.uint32).reshape(batch + (2 * self.nstate,)),
               s1[:, self._qpos].astype(np.float32).reshape(batch + (self.model.nq,)),
@@ -130,6 +135,14 @@ class MujocoBackend:
     self.physics_seconds += t2 - t1
     self.callback_seconds += time.perf_counter() - t0
     return result
+
+  def _check_instabilities(self):
+    bad = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQPOS)
+    total = sum(int(d.warning[w].number) for d in self._datas for w in bad)
+    if total > self.instabilities:
+      logging.warning("MuJoCo: %d physics instabilities (NaN/Inf or huge values) so far; the affected "
+                      "environments were reset by the engine", total)
+      self.instabilities = total
 
   # -- traced side ----------------------------------------------------------------------------
   def init(self, qpos: jax.Array, qvel: jax.Array) -> PhysicsState:

@@ -86,3 +86,15 @@ def test_backends_agree_on_a_scripted_motion(task):
     paths[backend] = np.asarray(path)
   gap = np.linalg.norm(paths["mujoco"] - paths["mjx"], axis=-1)
   assert gap.max() < 0.005, gap.max()
+
+
+def test_engine_instabilities_are_counted_not_silent(jitted_env, tmp_path, monkeypatch):
+  monkeypatch.chdir(tmp_path)  # MuJoCo writes MUJOCO_LOG.TXT into the working directory
+  env, reset, step = jitted_env("lift")
+  state = reset(jax.random.PRNGKey(0))
+  s64 = env.physics.float64_state(state.pipeline_state).copy()
+  s64[1 + env.mj_model.nq + 9] = 1e30  # the cube's velocity blows up
+  exploded = state.replace(pipeline_state=state.pipeline_state.replace(raw=jnp.asarray(s64.view(np.uint32))))
+  before = env.physics.instabilities
+  jax.block_until_ready(step(exploded, _hold(state.obs)).obs)
+  assert env.physics.instabilities > before
