@@ -6,6 +6,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from soe_jax.envs import can as can_task
 from soe_jax.experts import script
 from soe_jax.experts.script import target, uniform
 
@@ -64,5 +65,18 @@ def retreat(obs, p, cmd_pos, cmd_yaw):
   return target(cmd_pos.at[2].set(CARRY_Z), cmd_yaw, -1.0, p["speed"], hold=40)
 
 
+def resume(obs):
+  """Holding the can: lower it over the place, carry it at carrying height, or lift it there; the can
+  in its compartment: retreat; over the can: descend; otherwise: go over it."""
+  can, eef = obs["object"][:3], obs["robot0_eef_pos"]
+  holding = script.gripping(obs, can.at[2].add(0.016), can_task.CAN_RADIUS)
+  over_place = script.near_xy(eef, jnp.asarray(PLACE_XY), 0.03)
+  carried = jnp.where(over_place, 6, jnp.where(eef[2] > CARRY_Z - 0.03, 5, 4))
+  (x0, x1), (y0, y1) = can_task.TARGET_BOX
+  placed = (can[0] > x0) & (can[0] < x1) & (can[1] > y0) & (can[1] < y1)
+  free = jnp.where(placed, 8, jnp.where(script.near_xy(eef, can, 0.012), 2, 1))
+  return jnp.where(holding, carried, free)
+
+
 EXPERT = script.ScriptedExpert(plans=(settle, above, descend, close, lift, carry, lower, release, retreat),
-                               sample_params=sample_params)
+                               sample_params=sample_params, resume=resume)

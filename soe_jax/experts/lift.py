@@ -5,6 +5,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from soe_jax.envs import lift as lift_task
 from soe_jax.experts import script
 from soe_jax.experts.script import target, uniform
 
@@ -50,4 +51,12 @@ def lift(obs, p, cmd_pos, cmd_yaw):
   return target(cmd_pos + jnp.array([0.0, 0.0, 0.12]), cmd_yaw, 1.0, p["speed"], hold=40, tol=0.02)
 
 
-EXPERT = script.ScriptedExpert(plans=(settle, above, descend, close, lift), sample_params=sample_params)
+def resume(obs):
+  """Holding the cube: lift; over it: descend; otherwise: go over it."""
+  cube, _ = _cube(obs)
+  over = script.near_xy(obs["robot0_eef_pos"], cube, 0.012)
+  return jnp.where(script.gripping(obs, cube, lift_task.CUBE_HALF), 4, jnp.where(over, 2, 1))
+
+
+EXPERT = script.ScriptedExpert(plans=(settle, above, descend, close, lift), sample_params=sample_params,
+                               resume=resume)

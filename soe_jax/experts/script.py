@@ -7,6 +7,10 @@ phase left it to the target along a minimum-jerk profile, so motion is smooth; t
 the end effector has arrived (or a timeout passes). Per-episode randomness (speed, heights, offsets,
 waiting times) and a small smooth (AR(1)) positional noise give human-like variety.
 
+An expert can also start mid-episode: `init(obs, key, resume=True)` asks the task's `resume(obs)` which
+phase the scene is in (for example: holding the object, so carry on lifting) and plans from the
+current end-effector pose. Steering's scripted chooser and the `expert` strategy use this.
+
 The action is the 10-d absolute pose: position, rotation-6d of the top-down frame at the commanded
 yaw, gripper.
 """
@@ -80,17 +84,21 @@ def min_jerk(tau: jax.Array) -> jax.Array:
 
 @dataclasses.dataclass(frozen=True)
 class ScriptedExpert:
-  """`plans[i](obs, params, cmd_pos, cmd_yaw) -> Target`; `sample_params(key) -> dict`."""
+  """`plans[i](obs, params, cmd_pos, cmd_yaw) -> Target`; `sample_params(key) -> dict`;
+  `resume(obs) -> phase index` to start from in the scene `obs` shows."""
   plans: Sequence[Callable[..., Target]]
   sample_params: Callable[[jax.Array], dict]
+  resume: Callable[[dict], jax.Array]
   noise_std: float = 0.0004  # m, innovation of the AR(1) positional noise
   noise_decay: float = 0.9
 
-  def init(self, obs: dict, key: jax.Array) -> ExpertState:
+  def init(self, obs: dict, key: jax.Array, resume: bool = False) -> ExpertState:
+    """Start at the first phase, or with `resume` at the phase `self.resume(obs)` names."""
     key_params, key = jax.random.split(key)
     pos, yaw = obs["robot0_eef_pos"], site_yaw(obs)
     zero_t = Target(pos, yaw, jnp.array(-1.0), jnp.array(0.01), jnp.array(0), jnp.array(0.01))
-    return ExpertState(phase=jnp.array(0), t=jnp.array(0), start_pos=pos, start_yaw=yaw, target=zero_t,
+    phase = jnp.asarray(self.resume(obs), jnp.int32) if resume else jnp.array(0)
+    return ExpertState(phase=phase, t=jnp.array(0), start_pos=pos, start_yaw=yaw, target=zero_t,
                        duration=jnp.array(1), cmd_pos=pos, cmd_yaw=yaw, noise=jnp.zeros(3),
                        params=self.sample_params(key_params), key=key)
 
@@ -129,3 +137,15 @@ def uniform(key, lo, hi, shape=()):
 def target(pos, yaw, grip, speed, hold=0, tol=0.01) -> Target:
   f = lambda v: jnp.asarray(v, jnp.float32)
   return Target(f(pos), f(yaw), f(grip), f(speed), jnp.asarray(hold, jnp.int32), f(tol))
+
+
+def near_xy(a: jax.Array, b: jax.Array, radius: float) -> jax.Array:
+  return jnp.linalg.norm(a[:2] - b[:2]) < radius
+
+
+def gripping(obs: dict, grip_pos: jax.Array, half_width: float, z_tol: float = 0.02) -> jax.Array:
+  """The fingers are closed on an object part of half-width `half_width` centred at `grip_pos`."""
+  eef = obs["robot0_eef_pos"]
+  closed = obs["robot0_gripper_qpos"][0] < half_width + 0.004
+  return near_xy(eef, grip_pos, 0.015) & (jnp.abs(eef[2] - grip_pos[2]) < z_tol) & closed
+

@@ -95,5 +95,25 @@ def retreat(obs, p, cmd_pos, cmd_yaw):
   return target(cmd_pos.at[2].set(CARRY_Z), cmd_yaw, -1.0, p["speed"], hold=40)
 
 
+HANDLE_HALF_WIDTH = 0.015875
+
+
+def resume(obs):
+  """Holding the nut: over the peg, release it when it is down, insert it once aligned just above the
+  peg's top, else align; away from the peg, carry it at carrying height or lift it there. Not holding it:
+  the nut on the peg: retreat; over the handle: descend; otherwise: go over the handle."""
+  eef = obs["robot0_eef_pos"]
+  handle, _ = _handle(obs, {"along": jnp.array(0.008)})
+  nut, _ = _nut(obs)
+  peg = jnp.asarray(square_task.SQUARE_PEG)
+  holding = script.gripping(obs, handle, HANDLE_HALF_WIDTH, z_tol=0.025)
+  on_peg = script.near_xy(nut, peg, 0.03) & (nut[2] < square_task.TABLE_TOP + 0.05)
+  aligned = script.near_xy(nut, peg, 0.004) & (nut[2] < PEG_TOP + 0.03)
+  at_peg = jnp.where(on_peg, 8, jnp.where(aligned, 7, 6))
+  carried = jnp.where(script.near_xy(nut, peg, 0.015), at_peg, jnp.where(eef[2] > CARRY_Z - 0.03, 5, 4))
+  free = jnp.where(on_peg, 9, jnp.where(script.near_xy(eef, handle, 0.012), 2, 1))
+  return jnp.where(holding, carried, free)
+
+
 EXPERT = script.ScriptedExpert(plans=(settle, above, descend, close, lift, carry, align, insert, release, retreat),
-                               sample_params=sample_params)
+                               sample_params=sample_params, resume=resume)

@@ -55,3 +55,15 @@ def farthest_point_sampling(paths: jax.Array, num: int, first: int = 0) -> jax.A
   start = (jnp.zeros(p, bool).at[first].set(True), dist[first])
   _, rest = jax.lax.scan(body, start, None, length=num - 1)
   return jnp.concatenate([jnp.array([first]), rest])
+
+
+def latent_snr(policy, agent, obs_history: jax.Array) -> jax.Array:
+  """(d,) SNR in dB of the policy's latent over raw observation histories (N, To, D)."""
+  cond = policy.encode(agent.params, agent.normalizer.normalize_obs(obs_history))
+  return snr_db(*policy.latent(agent.params, cond))
+
+
+def steering_dims(snr: jax.Array, threshold_db: float = 0.0, max_dims: int | None = None) -> tuple[int, ...]:
+  """The effective dimensions, highest SNR first (at most `max_dims` of them)."""
+  order = [int(i) for i in jnp.argsort(-snr) if float(snr[i]) > threshold_db]
+  return tuple(order[:max_dims] if max_dims else order)

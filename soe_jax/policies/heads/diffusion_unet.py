@@ -45,4 +45,12 @@ def make(action_dim: int, horizon: int, down_dims: Sequence[int] = (256, 512, 10
       x = diffusion.ddpm_sample(denoise, schedule, cond, out_shape, key, cond_fn)
     return x, {}
 
-  return Head("diffusion_unet", action_dim, horizon, init, loss, sample, net)
+  if sampler == "ddim":
+    timesteps = jnp.asarray(diffusion.ddim_timesteps(num_train_timesteps, num_inference_steps))
+  else:
+    timesteps = jnp.arange(num_train_timesteps)[::-1]
+
+  def progress(step_index):
+    return 1.0 - jnp.clip(timesteps[step_index] / num_train_timesteps, 0.0, 1.0)
+
+  return Head("diffusion_unet", action_dim, horizon, init, loss, sample, progress, net)

@@ -47,4 +47,7 @@ def make(action_dim: int, horizon: int, down_dims: Sequence[int] = (256, 512, 10
     x, _ = jax.lax.scan(step, x, jnp.arange(num_inference_steps))
     return jnp.clip(x, -1, 1), {}
 
-  return Head("flow_unet", action_dim, horizon, init, loss, sample, net)
+  def progress(step_index):  # the flow's time s runs from 0 (noise) to 1 (data)
+    return jnp.asarray(step_index, jnp.float32) / num_inference_steps
+
+  return Head("flow_unet", action_dim, horizon, init, loss, sample, progress, net)

@@ -1,0 +1,150 @@
+"""Exploration strategies: SIME's schedule and noise, SOE's alpha, steering candidates, the registry."""
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import ml_collections
+import numpy as np
+import pytest
+
+from soe_jax.explore import steering, strategies
+from soe_jax.policies import normalizer as normalizer_lib
+from soe_jax.policies.policy import make_policy
+
+OBS_DIM, ACTION_DIM = 5, 10
+
+
+def _policy(sampler="ddim", steps=10):
+  kwargs = dict(down_dims=(16, 32, 64), step_embed_dim=32, sampler=sampler, num_inference_steps=steps)
+  config = ml_collections.ConfigDict(dict(
+      head=dict(name="diffusion_unet", kwargs=kwargs), encoder=dict(name="lowdim", kwargs={}),
+      bypass=dict(enabled=True, latent_dim=4, hidden=32, beta=1e-3), n_obs_steps=2, horizon=16, n_action_steps=8))
+  return make_policy(config, OBS_DIM, ACTION_DIM)
+
+
+def _agent(policy, obs_span=2.0):
+  rng = np.random.default_rng(0)
+  obs = rng.uniform(0, obs_span, (200, OBS_DIM)) * np.arange(1, OBS_DIM + 1)  # a different range per dim
+  actions = rng.uniform(-1, 1, (200, ACTION_DIM))
+  return strategies.Agent(policy.init(jax.random.PRNGKey(0)), normalizer_lib.fit(obs, actions, margin=0.0))
+
+
+def test_sime_schedule_matches_the_spec():
+  # specs/sime_baseline.md: DDIM-20 over 100 training steps visits k = 95, 90, ..., 0; u = 1 - k/100;
+  # with tau1 = 0, tau2 = 1 the noise std is s * u: s*0.05, s*0.10, ..., s*1.0 (largest at the end).
+  policy = _policy(steps=20)
+  u = jnp.stack([policy.head.progress(i) for i in range(20)])
+  np.testing.assert_allclose(u, np.arange(1, 21) * 0.05, atol=1e-6)
+  std = strategies.sime_noise_std(u, 0.01)
+  np.testing.assert_allclose(np.asarray(std)[[0, 1, 9, 19]], [0.0005, 0.001, 0.005, 0.01], atol=1e-7)
+  # The general CADS ramp: 1 below tau1, 0 above tau2, linear in between.
+  g = strategies.sime_gamma(jnp.array([0.1, 0.2, 0.5, 0.8, 0.9]), tau1=0.2, tau2=0.8)
+  np.testing.assert_allclose(g, [1.0, 1.0, 0.5, 0.0, 0.0], atol=1e-6)
+  # DDPM visits every timestep 99 .. 0.
+  ddpm = _policy(sampler="ddpm")
+  np.testing.assert_allclose([ddpm.head.progress(0), ddpm.head.progress(99)], [0.01, 1.0], atol=1e-6)
+
+
+def test_sime_noise_is_raw_scale_converted_per_dimension():
+  policy = _policy()
+  agent = _agent(policy)
+  cond_fn = strategies.sime_cond_fn(policy, agent.normalizer, scale=0.01)
+  cond = jnp.zeros((20000, policy.cond_dim))
+  for i in (0, 4, 9):
+    noise = cond_fn(cond, i, jax.random.PRNGKey(i))
+    u = float(policy.head.progress(i))
+    expected = 0.01 * u * np.tile(np.asarray(agent.normalizer.obs_scale), 2)
+    np.testing.assert_allclose(noise.std(0), expected, rtol=0.05)
+  # Fresh noise at every call: two calls with different keys differ.
+  assert not np.allclose(cond_fn(cond[:2], 3, jax.random.PRNGKey(1)), cond_fn(cond[:2], 3, jax.random.PRNGKey(2)))
+
+
+def test_soe_alpha_zero_is_the_mean_path_and_alpha_spreads():
+  policy = _policy()
+  agent = _agent(policy)
+  obs = jax.random.uniform(jax.random.PRNGKey(3), (16, 2, OBS_DIM), minval=0, maxval=2)
+  key = jax.random.PRNGKey(4)
+
+  def chunk(alpha):
+    return strategies.make_strategy("soe", ml_collections.ConfigDict(dict(alpha=alpha)))(policy, agent, obs, None, key)
+
+  zero, aux = chunk(0.0)
+  # alpha = 0: the chunk of the exploration path's mean, z = mu, decoded with the same head noise.
+  obs_n = agent.normalizer.normalize_obs(obs)
+  mu, _ = policy.latent(agent.params, policy.encode(agent.params, obs_n))
+  _, key_head = jax.random.split(key)
+  mean_actions, _ = policy.head.sample(agent.params["head"], policy.decode_latent(agent.params, mu), key_head)
+  expected = strategies.executed(policy, agent.normalizer.unnormalize_actions(mean_actions))
+  np.testing.assert_allclose(zero, expected, atol=1e-5)
+  np.testing.assert_allclose(aux["z"], mu, atol=1e-6)
+  # Larger alpha: further from the mean path, with the same keys.
+  spread = [float(jnp.mean(jnp.abs(chunk(a)[0] - zero))) for a in (0.5, 2.0, 8.0)]
+  assert 0 < spread[0] < spread[1] < spread[2]
+
+
+def test_none_and_sime_use_the_base_path():
+  policy = _policy()
+  agent = _agent(policy)
+  obs = jax.random.uniform(jax.random.PRNGKey(3), (4, 2, OBS_DIM), minval=0, maxval=2)
+  key = jax.random.PRNGKey(5)
+  base, _ = strategies.make_strategy("none")(policy, agent, obs, None, key)
+  assert base.shape == (4, policy.n_action_steps, ACTION_DIM)
+  full = agent.normalizer.unnormalize_actions(policy.sample(agent.params, agent.normalizer.normalize_obs(obs), key))
+  np.testing.assert_allclose(base, full[:, 1:9], atol=1e-6)  # Diffusion Policy executes chunk[To-1 : To-1+Ta]
+  tiny = strategies.Sime(scale=1e-9)(policy, agent, obs, None, key)[0]
+  np.testing.assert_allclose(tiny, base, atol=1e-4)
+  big = strategies.Sime(scale=1.0)(policy, agent, obs, None, key)[0]
+  assert float(jnp.max(jnp.abs(big - base))) > 1e-3
+
+
+def test_steering_candidates_vary_one_dimension_and_are_distinct():
+  policy = _policy()
+  agent = _agent(policy)
+  obs = jax.random.uniform(jax.random.PRNGKey(3), (3, 2, OBS_DIM), minval=0, maxval=2)
+  cands, dim_of = strategies.steering_candidates(policy, agent, obs, jax.random.PRNGKey(0), (2, 0), alpha=2.0,
+                                                 num_proposals=12, num_choices=4)
+  assert cands.shape == (3, 8, policy.n_action_steps, ACTION_DIM)
+  np.testing.assert_array_equal(dim_of, [2, 2, 2, 2, 0, 0, 0, 0])
+  # Farthest point sampling never picks the same proposal twice: the 4 per dimension differ.
+  for b in range(3):
+    for j in range(2):
+      paths = np.asarray(cands[b, 4 * j:4 * j + 4, :, :3]).reshape(4, -1)
+      assert len({tuple(np.round(p, 6)) for p in paths}) == 4
+
+
+def test_steer_picks_the_candidate_the_chooser_names_and_only_every_kth_decision():
+  policy = _policy()
+  agent = _agent(policy)
+  obs = jax.random.uniform(jax.random.PRNGKey(3), (2, 2, OBS_DIM), minval=0, maxval=2)
+
+  @dataclasses.dataclass(frozen=True)
+  class Last:  # always the last candidate
+    def __call__(self, candidates, env_state, key):
+      b, c = candidates.shape[:2]
+      return jnp.full(b, c - 1), jnp.zeros(b)
+
+  steer = strategies.Steer(chooser=Last(), dims=(1,), num_proposals=8, num_choices=3, every=2)
+  key = jax.random.PRNGKey(9)
+  state = lambda step: type("S", (), {"info": {"steps": jnp.full(2, step)}})()
+  chunk, aux = steer(policy, agent, obs, state(0), key)
+  _, key_steer, _ = jax.random.split(key, 3)
+  cands, _ = strategies.steering_candidates(policy, agent, obs, key_steer, (1,), 2.0, 8, 3)
+  np.testing.assert_allclose(chunk, cands[:, -1], atol=1e-4)
+  assert aux["steered"].all() and (aux["dim"] == 1).all()
+  chunk, aux = steer(policy, agent, obs, state(8), key)  # decision 1 of every 2: the base path
+  assert not aux["steered"].any() and (aux["dim"] == -1).all()
+
+
+def test_effective_dims_are_ordered_by_snr():
+  snr = jnp.array([1.0, -3.0, 5.0, 0.5])
+  assert steering.steering_dims(snr) == (2, 0, 3)
+  assert steering.steering_dims(snr, max_dims=2) == (2, 0)
+  assert steering.steering_dims(snr, threshold_db=2.0) == (2,)
+
+
+def test_unknown_strategy_lists_the_known_ones():
+  with pytest.raises(ValueError, match="known strategies: none, sime, soe, soe_steer, expert"):
+    strategies.make_strategy("noise")
+  with pytest.raises(ValueError, match="needs the task's environment"):
+    strategies.make_strategy("soe_steer")

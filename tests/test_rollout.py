@@ -1,0 +1,97 @@
+"""The rollout engine: observation history and chunk bookkeeping, determinism, slices, and the scripted
+demonstrator run through it as a policy."""
+
+import functools
+
+import jax
+import numpy as np
+import pytest
+
+from configs import lift as lift_config
+from soe_jax import checkpoint, rollout
+from soe_jax.envs import make_env
+from soe_jax.experts.collect import run_demos
+from soe_jax.experts.registry import make_expert
+from soe_jax.explore import strategies
+from soe_jax.policies import normalizer as normalizer_lib
+
+
+@functools.lru_cache(maxsize=None)
+def _setup(horizon):
+  env = make_env("lift", horizon=horizon)
+  policy = checkpoint.policy_from_config(lift_config.get_config("smoke"))
+  rng = np.random.default_rng(0)
+  demo_like = rng.uniform(-0.2, 1.0, (100, policy.obs_dim))
+  actions = np.concatenate([rng.uniform(-0.1, 0.1, (100, 2)), rng.uniform(0.85, 1.0, (100, 1)),
+                            rng.uniform(-1, 1, (100, 7))], 1)
+  agent = strategies.Agent(policy.init(jax.random.PRNGKey(0)), normalizer_lib.fit(demo_like, actions))
+  return env, policy, agent
+
+
+def test_rollouts_are_a_pure_function_of_the_keys():
+  env, policy, agent = _setup(24)
+  keys = jax.random.split(jax.random.PRNGKey(1), 4)
+  soe = strategies.make_strategy("soe")
+  a = rollout.rollout(env, policy, agent, soe, keys, jax.random.PRNGKey(2), progress=False)
+  b = rollout.rollout(env, policy, agent, soe, keys, jax.random.PRNGKey(2), progress=False)
+  for k in ("obs", "actions", "eef_pos", "qpos", "length", "success"):
+    np.testing.assert_array_equal(a[k], b[k])
+  np.testing.assert_array_equal(a["aux"]["z"], b["aux"]["z"])
+  c = rollout.rollout(env, policy, agent, soe, keys, jax.random.PRNGKey(3), progress=False)
+  np.testing.assert_array_equal(a["obs"][:, 0], c["obs"][:, 0])  # same start states
+  assert not np.allclose(a["actions"], c["actions"])  # other exploration noise
+
+
+def test_records_history_and_horizon():
+  env, policy, agent = _setup(20)  # not a multiple of n_action_steps (8)
+  keys = jax.random.split(jax.random.PRNGKey(1), 3)
+  out = rollout.rollout(env, policy, agent, strategies.make_strategy("none"), keys, jax.random.PRNGKey(0),
+                        slice_size=2, progress=False)
+  assert out["obs"].shape == (3, 20, policy.obs_dim) and out["actions"].shape == (3, 20, 10)
+  assert out["eef_pos"].shape == (3, 21, 3) and out["aux"] == {}
+  np.testing.assert_array_equal(out["length"], 20)  # an untrained policy does not lift the cube
+  assert not out["success"].any()
+  start = jax.vmap(env.reset)(keys)
+  np.testing.assert_allclose(out["obs"][:, 0, :3], start.obs["robot0_eef_pos"], atol=1e-6)
+  np.testing.assert_allclose(out["eef_pos"][:, 1:-1], out["obs"][:, 1:, :3], atol=1e-6)
+  # The slice of one (the third environment) starts from its own key.
+  np.testing.assert_allclose(out["qpos"][2, 0], start.pipeline_state.qpos[2], atol=1e-6)
+
+
+def test_scripted_demonstrator_through_the_engine_reproduces_its_success_rate():
+  env, policy, agent = _setup(400)
+  keys = jax.random.split(jax.random.PRNGKey(7), 8)
+  demos = run_demos(env, make_expert("lift"), keys, progress=False)
+  out = rollout.rollout(env, policy, agent, strategies.make_strategy("expert", env=env), keys,
+                        jax.random.PRNGKey(0), progress=False)
+  assert abs(out["success"].mean() - demos["success"].mean()) <= 1 / 8
+  assert out["success"].mean() >= 0.875
+  ok = out["success"]
+  assert (out["length"][ok] < 400).all()
+  # After success nothing more is recorded as part of the episode: the last step is the lifting one.
+  last = out["length"][ok] - 1
+  cube_z = out["obs"][ok, last, 9 + 2]
+  assert (cube_z > 0.8).all()
+
+
+def test_slices_of_the_batch_cover_every_start_state():
+  env, policy, agent = _setup(16)
+  keys = jax.random.split(jax.random.PRNGKey(4), 5)
+  whole = rollout.rollout(env, policy, agent, strategies.make_strategy("none"), keys, jax.random.PRNGKey(0),
+                          progress=False)
+  sliced = rollout.rollout(env, policy, agent, strategies.make_strategy("none"), keys, jax.random.PRNGKey(0),
+                           slice_size=2, progress=False)
+  np.testing.assert_array_equal(whole["qpos"][:, 0], sliced["qpos"][:, 0])
+  assert sliced["obs"].shape == whole["obs"].shape
+
+
+@pytest.mark.parametrize("name", ["sime", "soe_steer"])
+def test_every_strategy_runs_in_the_engine(name):
+  env, policy, agent = _setup(16)
+  keys = jax.random.split(jax.random.PRNGKey(5), 2)
+  strat = strategies.make_strategy(name, env=env, dims=(0, 1))
+  out = rollout.rollout(env, policy, agent, strat, keys, jax.random.PRNGKey(0), progress=False)
+  assert np.isfinite(out["actions"]).all()
+  if name == "soe_steer":
+    assert out["aux"]["steered"].shape == (2, 2) and out["aux"]["steered"].all()
+    assert set(np.unique(out["aux"]["dim"])) <= {0, 1}
