@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import ml_collections
 
-PRESETS = ("smoke", "cpu", "head")
+METHODS = ("dp", "sime", "soe", "soe_steer")
+METHOD_STRATEGY = {"dp": "none", "sime": "sime", "soe": "soe", "soe_steer": "soe_steer"}
+PRESETS = ("smoke", "cpu", "head") + METHODS
 
 
 def parse_arg(arg: str | None) -> dict:
@@ -31,7 +33,7 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   batch 256, 25k steps, DDIM-10."""
   c = ml_collections.ConfigDict()
   c.seed = 0
-  c.env = ml_collections.ConfigDict(dict(task=task, backend="auto", action_mode="absolute"))
+  c.env = ml_collections.ConfigDict(dict(task=task, backend="auto", action_mode="absolute", horizon=400))
   c.data = ml_collections.ConfigDict(dict(num_demos=num_demos, demo_seed=1000, hdf5_path="", max_length=400,
                                           capacity=2048))
   c.policy = ml_collections.ConfigDict(dict(
@@ -44,20 +46,44 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   ))
   c.fit = ml_collections.ConfigDict(dict(num_steps=25_000, batch_size=256, chunk_size=250, lr=3e-4, warmup_steps=500,
                                          betas=(0.95, 0.999), eps=1e-8, weight_decay=1e-6, ema=True))
+  # Exploration: `tries` rollouts from each of `num_start_states` start states per round.
+  c.explore = ml_collections.ConfigDict(dict(
+      method="soe", strategy="soe", alpha=2.0, num_start_states=100, tries=5, slice_size=0, decisions_per_call=10,
+      sime=dict(scale=0.01, tau1=0.0, tau2=1.0),
+      steer=dict(num_proposals=32, num_choices=5, every=1, threshold_db=0.0, max_dims=0, snr_windows=2048)))
+  c.eval = ml_collections.ConfigDict(dict(num_start_states=100, seed=77_777))
+  # Rounds after round 0: select episodes (first_success | all_successes | sime), append, re-fit
+  # (continue from the previous round's parameters, or scratch), evaluate.
+  c.rounds = ml_collections.ConfigDict(dict(num_rounds=3, select="first_success", refit="continue",
+                                            refit_steps=10_000))
   return c
 
 
 def apply_presets(c: ml_collections.ConfigDict, arg: str | None) -> ml_collections.ConfigDict:
   presets = parse_arg(arg)
+  methods = [m for m in METHODS if presets.get(m)]
+  if len(methods) > 1:
+    raise ValueError(f"choose one method preset, got {', '.join(methods)}")
+  if methods:
+    c.explore.method = methods[0]
+    c.explore.strategy = METHOD_STRATEGY[methods[0]]
   head_kwargs = c.policy.head.kwargs
   if presets.get("cpu"):
     head_kwargs.update(down_dims=(64, 128, 256), step_embed_dim=128)
     c.fit.update(num_steps=1500, chunk_size=250)
+    c.rounds.update(num_rounds=1, refit_steps=1000)
+    c.explore.steer.update(num_proposals=16, every=2, max_dims=4)
   if presets.get("smoke"):
     head_kwargs.update(down_dims=(16, 32, 64), step_embed_dim=32)
     c.policy.bypass.hidden = 32
     c.data.num_demos = min(c.data.num_demos, 4)
     c.fit.update(num_steps=40, chunk_size=20, batch_size=32, warmup_steps=10)
+    c.data.capacity = 64
+    c.env.horizon = 24
+    c.explore.update(num_start_states=3, tries=2)
+    c.explore.steer.update(num_proposals=4, num_choices=2, max_dims=2, snr_windows=64)
+    c.eval.num_start_states = 4
+    c.rounds.update(num_rounds=2, refit_steps=20)
   if "head" in presets:
     name = presets["head"]
     c.policy.head.name = name

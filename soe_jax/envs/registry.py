@@ -45,3 +45,9 @@ def make_env(name: str, config: ml_collections.ConfigDict | None = None, **overr
 register_env("lift", lift.Lift)
 register_env("can", can.Can)
 register_env("square", square.Square)
+
+
+def env_from_config(env_config: ml_collections.ConfigDict) -> manipulation.ManipulationEnv:
+  """The task a run's `config.env` names (task, backend, action_mode, horizon, ...)."""
+  fields = {k: v for k, v in env_config.items() if k != "task"}
+  return make_env(env_config.task, **fields)

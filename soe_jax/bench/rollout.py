@@ -1,0 +1,55 @@
+"""Rollout throughput with the policy in the loop: a batch of environments, a freshly initialised
+policy of the config's size, and one exploration strategy. The compiled decision program is timed
+after its first (compiling) call; an untrained policy does not finish episodes, so every environment
+does real work throughout. `soe_steer` steers along the first `explore.steer.max_dims` (default 4)
+latent dimensions with the scripted chooser at every decision, so its figure is the cost of one
+steering decision."""
+
+from __future__ import annotations
+
+import time
+
+import jax
+import ml_collections
+import numpy as np
+
+from soe_jax import checkpoint, rollout
+from soe_jax.envs import registry
+from soe_jax.explore import strategies
+from soe_jax.policies import normalizer as normalizer_lib
+
+
+def run(config: ml_collections.ConfigDict, strategy: str, num_envs: int, decisions: int = 2, repeats: int = 3) -> dict:
+  config = ml_collections.ConfigDict(config)
+  env = registry.env_from_config(config.env)
+  policy = checkpoint.policy_from_config(config)
+  rng = np.random.default_rng(0)
+  obs = rng.uniform(-0.3, 1.1, (256, policy.obs_dim))
+  actions = rng.uniform(-1, 1, (256, policy.action_dim))
+  agent = strategies.Agent(policy.init(jax.random.PRNGKey(0)), normalizer_lib.fit(obs, actions))
+  steer = config.explore.steer
+  if strategy == "soe_steer":
+    steer.every = 1
+  dims = tuple(range(min(steer.max_dims or 4, policy.p_net.latent_dim)))
+  strat = strategies.make_strategy(strategy, config.explore, env=env, dims=dims)
+  keys = jax.random.split(jax.random.PRNGKey(1), num_envs)
+  fn = rollout._decisions_fn(env, policy, strat, decisions)
+  carry = rollout._start(env, policy, keys)
+  t = time.perf_counter()
+  carry, out = fn(carry, agent, jax.random.PRNGKey(0))
+  jax.block_until_ready(out)
+  first = time.perf_counter() - t
+  times = []
+  for r in range(repeats):
+    t = time.perf_counter()
+    carry, out = fn(carry, agent, jax.random.PRNGKey(r + 1))
+    jax.block_until_ready(out)
+    times.append(time.perf_counter() - t)
+  per_call = float(np.median(times))
+  steps = num_envs * decisions * policy.n_action_steps
+  return dict(bench="rollout", task=env.name, backend=env.backend, strategy=strategy, num_envs=num_envs,
+              head=config.policy.head.name, down_dims=list(config.policy.head.kwargs.get("down_dims", [])),
+              steer_dims=len(dims) if strategy == "soe_steer" else 0,
+              proposals=steer.num_proposals if strategy == "soe_steer" else 0,
+              env_steps_per_s=round(steps / per_call, 1), ms_per_chunk=round(1000 * per_call / decisions, 1),
+              first_call_s=round(first, 1))
