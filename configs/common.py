@@ -54,8 +54,9 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   c.eval = ml_collections.ConfigDict(dict(num_start_states=100, seed=77_777))
   # Rounds after round 0: select episodes (first_success | all_successes | sime), append, re-fit
   # (continue from the previous round's parameters, or scratch), evaluate.
+  # round0_dir: where the shared round 0 lives ("" = <workdir>/../round0).
   c.rounds = ml_collections.ConfigDict(dict(num_rounds=3, select="first_success", refit="continue",
-                                            refit_steps=10_000))
+                                            refit_steps=10_000, round0_dir=""))
   return c
 
 

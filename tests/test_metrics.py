@@ -1,6 +1,7 @@
 """Metrics on hand-made outcome tables and paths."""
 
 import numpy as np
+import pytest
 
 from soe_jax import metrics
 
@@ -44,3 +45,14 @@ def test_relative_improvement_keeps_the_absolute_difference():
   np.testing.assert_allclose([r["absolute"], r["relative"]], [0.2, 0.5])
   r = metrics.relative_improvement(0.0, 0.3)
   assert r["relative"] is None and r["absolute"] == 0.3
+
+
+def test_episode_selection_rules():
+  from soe_jax.explore.select import select
+  s = np.array([[0, 1, 1, 0, 0], [0, 0, 0, 0, 0], [1, 1, 1, 1, 0], [1, 0, 0, 0, 1]], bool)
+  np.testing.assert_array_equal(select(s), [[0, 1, 0, 0, 0], [0] * 5, [1, 0, 0, 0, 0], [1, 0, 0, 0, 0]])
+  np.testing.assert_array_equal(select(s, "all_successes"), s)
+  # SIME's train_0.5: states with success rate 0.4 (rows 0 and 3) keep all their successes; 0.8 drops.
+  np.testing.assert_array_equal(select(s, "sime"), [[0, 1, 1, 0, 0], [0] * 5, [0] * 5, [1, 0, 0, 0, 1]])
+  with pytest.raises(ValueError, match="known selections: first_success, all_successes, sime"):
+    select(s, "best")

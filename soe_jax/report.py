@@ -1,0 +1,182 @@
+"""A run's report (`report.md`, PNG plots) from its `metrics.jsonl`, and the comparison of many runs.
+
+The run's row is shaped like the paper's real-world table: Pass@k, average jerk and rollouts of the
+first exploration round (every method explores from the same round-0 policy and start states), the
+success rate before (round 0) and after (the last round) with its episode count and 95% Wilson
+interval, and the relative improvement with the absolute difference beside it.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+
+import numpy as np
+
+from soe_jax import metrics, runlog
+
+
+def _by_phase(lines: list[dict]) -> dict:
+  out = {}
+  for m in lines:
+    out[(m["round"], m["phase"])] = m  # a resumed run may repeat a line: the last one counts
+  return out
+
+
+def _pct(x) -> str:
+  return "-" if x is None else f"{100 * x:.1f}%"
+
+
+def _sr(m: dict | None) -> str:
+  if m is None:
+    return "-"
+  return f"{_pct(m['success_rate'])} [{_pct(m['wilson_low'])}, {_pct(m['wilson_high'])}] (n={m['num_rollouts']})"
+
+
+def summarize(workdir: str) -> dict:
+  """The run's numbers: method, task, seed, and the table row."""
+  lines = runlog.read_metrics(workdir)
+  if not lines:
+    raise FileNotFoundError(f"{workdir} has no metrics.jsonl (not a run directory, or nothing finished yet)")
+  with open(os.path.join(workdir, "config.json")) as f:
+    config = json.load(f)
+  phases = _by_phase(lines)
+  rounds = sorted({r for r, p in phases if p == "evaluate"})
+  before, after = phases.get((0, "evaluate")), phases.get((rounds[-1], "evaluate")) if rounds else None
+  first = phases.get((1, "explore"))
+  out = dict(workdir=os.path.abspath(workdir), task=config["env"]["task"], method=config["explore"]["method"],
+             seed=config["seed"], rounds=rounds,
+             success_per_round=[phases[(r, "evaluate")]["success_rate"] for r in rounds],
+             episodes_per_round=[phases[(r, "evaluate")]["num_rollouts"] for r in rounds],
+             pass_at_k_per_round=[phases.get((r, "explore"), {}).get("pass_at_k") for r in rounds],
+             rollouts_per_round=[phases.get((r, "explore"), {}).get("rollouts") for r in rounds])
+  if first is not None:
+    out.update(pass_at_k=first["pass_at_k"], k=first["k"], jerk=first["jerk"], rollouts=first["rollouts"],
+               rollouts_mean=first["rollouts_mean"])
+  if before is not None and after is not None:
+    imp = metrics.relative_improvement(before["success_rate"], after["success_rate"])
+    out.update(sr_before=before["success_rate"], sr_after=after["success_rate"], sr_episodes=after["num_rollouts"],
+               sr_after_wilson=(after["wilson_low"], after["wilson_high"]), improvement_abs=imp["absolute"],
+               improvement_rel=imp["relative"])
+  out["_phases"] = phases
+  return out
+
+
+def _improvement(s: dict) -> str:
+  if "improvement_abs" not in s:
+    return "-"
+  rel = s["improvement_rel"]
+  abs_ = f"{100 * s['improvement_abs']:+.1f} pts"
+  return abs_ if rel is None else f"{100 * rel:+.1f}% ({abs_})"
+
+
+def write(workdir: str) -> dict:
+  """Write `report.md` and the plots; return the summary."""
+  s = summarize(workdir)
+  phases = s.pop("_phases")
+  k = s.get("k", 5)
+  md = [f"# {s['task']}: {s['method']} (seed {s['seed']})", "",
+        f"| Method | Pass@{k} | Avg. jerk (m/s^3) | Rollouts | Success before | Success after | Relative improvement |",
+        "|---|---|---|---|---|---|---|",
+        f"| {s['method']} | {_pct(s.get('pass_at_k'))} | {s.get('jerk', float('nan')):.1f} | {s.get('rollouts', '-')} "
+        f"| {_sr(phases.get((0, 'evaluate')))} | {_sr(phases.get((s['rounds'][-1], 'evaluate')) if s['rounds'] else None)} "
+        f"| {_improvement(s)} |", "",
+        "Pass@k, jerk and rollouts: the first exploration round (from the shared round-0 policy). Success: the base "
+        "path on the fixed evaluation start states, with its 95% Wilson interval and episode count.", "",
+        "## Per round", "", f"| Round | Success | Pass@{k} | Rollouts | Jerk | Episodes kept | Fit loss | Wall time (s) |",
+        "|---|---|---|---|---|---|---|---|"]
+  for r in s["rounds"]:
+    ex, fi, ev = phases.get((r, "explore"), {}), phases.get((r, "fit"), {}), phases.get((r, "evaluate"), {})
+    wall = sum(p.get("time_total_s", 0) for p in (ex, fi, ev))
+    jerk = f"{ex['jerk']:.1f}" if ex else "-"
+    loss = f"{fi['final_loss']:.4f}" if fi else "-"
+    md.append(f"| {r} | {_sr(ev)} | {_pct(ex.get('pass_at_k'))} | {ex.get('rollouts', '-')} | {jerk} "
+              f"| {ex.get('num_episodes', '-')} | {loss} | {wall:.0f} |")
+  md += ["", "![success over rounds](success.png)", "", "![exploration over rounds](exploration.png)", ""]
+  with open(os.path.join(workdir, "report.md"), "w") as f:
+    f.write("\n".join(md))
+  _plots(workdir, s)
+  return s
+
+
+def _plots(workdir: str, s: dict) -> None:
+  import matplotlib
+  matplotlib.use("Agg")
+  import matplotlib.pyplot as plt
+
+  rounds = s["rounds"]
+  sr = np.array(s["success_per_round"])
+  n = np.array(s["episodes_per_round"])
+  ci = np.array([metrics.wilson_interval(int(round(p * m)), int(m)) for p, m in zip(sr, n)]).reshape(-1, 2)
+  fig, ax = plt.subplots(figsize=(5, 3.5))
+  ax.errorbar(rounds, 100 * sr, yerr=100 * np.abs(ci.T - sr), marker="o", capsize=3)
+  ax.set(xlabel="round", ylabel="success rate (%)", title=f"{s['task']} {s['method']}: success (95% Wilson)",
+         ylim=(0, 100), xticks=rounds)
+  fig.tight_layout()
+  fig.savefig(os.path.join(workdir, "success.png"), dpi=100)
+  plt.close(fig)
+  ex_rounds = [r for r, p in zip(rounds, s["pass_at_k_per_round"]) if p is not None]
+  fig, ax1 = plt.subplots(figsize=(5, 3.5))
+  if ex_rounds:
+    ax1.plot(ex_rounds, [s["rollouts_per_round"][rounds.index(r)] for r in ex_rounds], "o-", color="C0")
+    ax2 = ax1.twinx()
+    ax2.plot(ex_rounds, [100 * s["pass_at_k_per_round"][rounds.index(r)] for r in ex_rounds], "s--", color="C1")
+    ax2.set_ylabel(f"Pass@{s.get('k', 5)} (%)", color="C1")
+    ax2.set_ylim(0, 100)
+    ax1.set_xticks(ex_rounds)
+  ax1.set(xlabel="round", title=f"{s['task']} {s['method']}: exploration")
+  ax1.set_ylabel("rollouts (sum over start states)", color="C0")
+  fig.tight_layout()
+  fig.savefig(os.path.join(workdir, "exploration.png"), dpi=100)
+  plt.close(fig)
+
+
+# -- comparison of many runs --------------------------------------------------------------------
+def find_runs(root: str) -> list[str]:
+  """Run directories (with a metrics.jsonl) under `root`, sorted."""
+  found = []
+  for dirpath, _, files in os.walk(root):
+    if "metrics.jsonl" in files and "config.json" in files:
+      found.append(dirpath)
+  return sorted(found)
+
+
+def _mean_std(xs) -> str:
+  xs = [x for x in xs if x is not None]
+  if not xs:
+    return "-"
+  return f"{np.mean(xs):.3g} ± {np.std(xs):.2g}" if len(xs) > 1 else f"{xs[0]:.3g}"
+
+
+def aggregate(workdirs: list[str]) -> tuple[str, str]:
+  """(markdown, csv): one row per task and method, mean ± std over seeds; success rates also with the
+  95% Wilson interval of all their episodes pooled, and the episode count."""
+  groups: dict[tuple, list[dict]] = {}
+  for w in workdirs:
+    s = summarize(w)
+    s.pop("_phases")
+    groups.setdefault((s["task"], s["method"]), []).append(s)
+  header = ["task", "method", "seeds", "pass_at_k", "jerk", "rollouts", "sr_before", "sr_after", "sr_after_episodes",
+            "sr_after_wilson", "improvement_abs", "improvement_rel"]
+  rows = []
+  for (task, method), runs in sorted(groups.items()):
+    after = [r for r in runs if "sr_after" in r]
+    n = sum(r["sr_episodes"] for r in after)
+    successes = sum(int(round(r["sr_after"] * r["sr_episodes"])) for r in after)
+    lo, hi = metrics.wilson_interval(successes, n)
+    rows.append(dict(task=task, method=method, seeds=len(runs),
+                     pass_at_k=_mean_std([r.get("pass_at_k") for r in runs]), jerk=_mean_std([r.get("jerk") for r in runs]),
+                     rollouts=_mean_std([r.get("rollouts") for r in runs]),
+                     sr_before=_mean_std([r.get("sr_before") for r in runs]), sr_after=_mean_std([r.get("sr_after") for r in runs]),
+                     sr_after_episodes=n, sr_after_wilson=f"[{lo:.3f}, {hi:.3f}]",
+                     improvement_abs=_mean_std([r.get("improvement_abs") for r in runs]),
+                     improvement_rel=_mean_std([r.get("improvement_rel") for r in runs])))
+  md = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+  md += ["| " + " | ".join(str(r[h]) for h in header) + " |" for r in rows]
+  buf = io.StringIO()
+  w = csv.DictWriter(buf, fieldnames=header)
+  w.writeheader()
+  w.writerows(rows)
+  return "\n".join(md) + "\n", buf.getvalue()

@@ -1,0 +1,80 @@
+"""A run's log: `metrics.jsonl` (one JSON line per round and phase), TensorBoard event files under
+`tb/`, a one-line summary per phase on the console, and the time spent compiling (from JAX's
+compilation events), so that phase wall times can be split into compile and work."""
+
+from __future__ import annotations
+
+import json
+import os
+import threading
+
+import jax
+
+
+_COMPILE_EVENTS = ("/jax/core/compile/jaxpr_trace_duration", "/jax/core/compile/jaxpr_to_mlir_module_duration",
+                   "/jax/core/compile/backend_compile_duration")
+
+
+class CompileTimer:
+  """Seconds JAX spent tracing, lowering and compiling since the last `take()`."""
+
+  def __init__(self):
+    self._lock = threading.Lock()
+    self._seconds = 0.0
+    jax.monitoring.register_event_duration_secs_listener(self._listen)
+
+  def _listen(self, event: str, duration: float, **kwargs) -> None:
+    if event in _COMPILE_EVENTS:
+      with self._lock:
+        self._seconds += duration
+
+  def take(self) -> float:
+    with self._lock:
+      seconds, self._seconds = self._seconds, 0.0
+    return seconds
+
+  def close(self) -> None:
+    jax.monitoring.unregister_event_duration_listener(self._listen)
+
+
+def read_metrics(workdir: str) -> list[dict]:
+  path = os.path.join(workdir, "metrics.jsonl")
+  if not os.path.exists(path):
+    return []
+  with open(path) as f:
+    return [json.loads(line) for line in f if line.strip()]
+
+
+class RunLog:
+  def __init__(self, workdir: str):
+    from tensorboardX import SummaryWriter
+    self.path = os.path.join(workdir, "metrics.jsonl")
+    self.writer = SummaryWriter(os.path.join(workdir, "tb"))
+
+  def write(self, record: dict) -> None:
+    """Append one phase's record (and its numbers to TensorBoard, stepped by round)."""
+    with open(self.path, "a") as f:
+      f.write(json.dumps(record) + "\n")
+      f.flush()
+      os.fsync(f.fileno())
+    for k, v in record.items():
+      if isinstance(v, (int, float)) and not isinstance(v, bool) and k != "round":
+        self.writer.add_scalar(f"{record['phase']}/{k}", v, record["round"])
+    self.writer.flush()
+    print(summary_line(record), flush=True)
+
+  def close(self) -> None:
+    self.writer.close()
+
+
+def summary_line(r: dict) -> str:
+  parts = [f"round {r['round']} {r['phase']}:"]
+  if r.get("success_rate") is not None:
+    parts.append(f"success {r['success_rate']:.1%} of {r['num_rollouts']} [{r['wilson_low']:.1%}, {r['wilson_high']:.1%}]")
+  if r.get("pass_at_k") is not None:
+    parts.append(f"Pass@{r['k']} {r['pass_at_k']:.1%}, rollouts {r['rollouts']} ({r['rollouts_mean']:.2f}/state), "
+                 f"jerk {r['jerk']:.1f} m/s^3, kept {r['num_episodes']}")
+  if r.get("final_loss") is not None:
+    parts.append(f"loss {r['final_loss']:.4f} after {r['steps']} steps on {r['num_episodes']} episodes")
+  parts.append(f"({r['time_total_s']:.0f} s, compile {r['time_compile_s']:.0f} s)")
+  return " ".join(parts)

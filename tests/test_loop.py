@@ -1,0 +1,89 @@
+"""The experiment end to end on the smoke preset: outputs, resume after an interruption, the shared
+round 0, and a refused config."""
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from configs import lift as lift_config
+from soe_jax import loop, report, runlog
+
+TIMING = ("time_compile_s", "time_fit_s", "time_explore_s", "time_evaluate_s", "time_total_s")
+
+
+def _numbers(workdir):
+  return [{k: v for k, v in m.items() if k not in TIMING} for m in runlog.read_metrics(workdir)]
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+  root = tmp_path_factory.mktemp("runs")
+  config = lift_config.get_config("smoke,soe")
+  workdir = str(root / "lift-soe")
+  summary = loop.run(config, workdir, progress=False)
+  return root, config, workdir, summary
+
+
+def test_a_run_leaves_metrics_report_plots_and_data(finished):
+  root, config, workdir, summary = finished
+  lines = runlog.read_metrics(workdir)
+  assert [(m["round"], m["phase"]) for m in lines] == [
+      (0, "fit"), (0, "evaluate"), (1, "explore"), (1, "fit"), (1, "evaluate"), (2, "explore"), (2, "fit"), (2, "evaluate")]
+  for m in lines:
+    assert set(loop.LINE_KEYS) <= set(m)
+    assert m["time_total_s"] >= m["time_compile_s"] >= 0
+  explore = lines[2]
+  assert explore["num_rollouts"] == config.explore.num_start_states * config.explore.tries
+  assert explore["k"] == config.explore.tries and 0 <= explore["pass_at_k"] <= 1
+  assert config.explore.num_start_states <= explore["rollouts"] <= explore["num_rollouts"]
+  assert lines[1]["num_rollouts"] == config.eval.num_start_states
+  for name in ("report.md", "success.png", "exploration.png", "seeds.json", "config.json", "data/round_1.hdf5",
+               "rounds/2/ckpt/config.json"):
+    assert os.path.exists(os.path.join(workdir, name)), name
+  assert any(f.startswith("events.out.tfevents") for f in os.listdir(os.path.join(workdir, "tb")))
+  text = open(os.path.join(workdir, "report.md")).read()
+  assert "| soe |" in text and f"(n={config.eval.num_start_states})" in text
+  assert summary["rounds"] == [0, 1, 2] and len(summary["success_per_round"]) == 3
+  # Round 0 is stored once, beside the run, for every method with the same settings.
+  assert os.path.exists(os.path.join(loop.round0_dir(config, workdir), "ckpt", "config.json"))
+
+
+def test_an_interrupted_run_resumes_to_the_same_numbers(finished, monkeypatch):
+  root, config, workdir, _ = finished
+  other = str(root / "lift-soe-interrupted")
+  real = loop.Experiment.fit
+  calls = []
+
+  def fit_then_stop(self, buf, norm, r, init_state=None):
+    if r == 2:
+      calls.append(r)
+      raise KeyboardInterrupt
+    return real(self, buf, norm, r, init_state)
+
+  monkeypatch.setattr(loop.Experiment, "fit", fit_then_stop)
+  with pytest.raises(KeyboardInterrupt):
+    loop.run(config, other, progress=False)
+  assert calls == [2] and not os.path.exists(os.path.join(other, "rounds", "2", "fit.json"))
+  monkeypatch.setattr(loop.Experiment, "fit", real)
+  loop.run(config, other, progress=False)
+  assert _numbers(other) == _numbers(workdir)
+  ev = json.load(open(os.path.join(other, "rounds", "2", "evaluate.json")))
+  np.testing.assert_array_equal(ev["success"], json.load(open(os.path.join(workdir, "rounds", "2", "evaluate.json")))["success"])
+
+
+def test_a_different_config_is_refused_naming_the_fields(finished):
+  _, config, workdir, _ = finished
+  changed = lift_config.get_config("smoke,soe")
+  changed.explore.alpha = 3.0
+  changed.fit.lr = 1e-3
+  with pytest.raises(ValueError, match=r"explore\.alpha: 2\.0 -> 3\.0[\s\S]*fit\.lr"):
+    loop.run(changed, workdir, progress=False)
+
+
+def test_aggregate_table_over_runs(finished):
+  root, _, workdir, _ = finished
+  md, csv_text = report.aggregate([workdir])
+  assert "| lift | soe | 1 |" in md
+  assert csv_text.splitlines()[0].startswith("task,method,seeds,pass_at_k")
