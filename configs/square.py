@@ -1,11 +1,20 @@
-"""Configuration for the square task.
+"""Square: the self-improvement experiment on robomimic's NutAssemblySquare (the nut onto its peg).
 
-  python -m soe_jax.bench fit --config=configs/square.py:cpu     # fit-step speed, small UNet
+  python -m soe_jax.main --config=configs/square.py:cpu,soe
+
+runs round 0 (scripted demonstrations, the round-0 fit with the VIB bypass, evaluation on 100 fixed
+start states) and one round of SOE exploration (100 start states x 5 tries) -> keep each state's first
+success -> re-fit -> evaluate, leaving metrics.jsonl, report.md and plots in runs/square-soe-<time>/.
+Swap `soe` for `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
+
+Demonstrations: 20, robomimic's core_20 as SIME uses it. The base success rate with these settings
+has not been measured yet.
+
+Presets: `smoke` (tiny networks, seconds), `cpu` (small UNet 64/128/256, 1.5k + 1k steps, one round),
+default: paper scale (Diffusion Policy's low-dim UNet, 25k steps of AdamW 3e-4 at batch 256, DDIM-10,
+3 rounds), for accelerators. Also `head=NAME` (diffusion_unet, flow_unet, mlp). Benchmarks:
+  python -m soe_jax.bench fit --config=configs/square.py:cpu --bypass=on
   python -m soe_jax.bench sample --config=configs/square.py --batch=1 --steps=10
-
-Paper-scale defaults (20 demonstrations, Diffusion Policy's low-dim UNet with the VIB bypass, 25k steps
-of AdamW 3e-4 at batch 256, DDIM-10); presets: `smoke` (tiny networks, seconds), `cpu` (the small
-UNet 64/128/256, 1.5k steps), `head=NAME` (diffusion_unet, flow_unet, mlp).
 """
 
 from configs import common

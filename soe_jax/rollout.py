@@ -14,8 +14,9 @@ fold_in(fold_in(key, s), j). The same keys and slice size give the same rollouts
 Output (numpy, in the buffer's format): `obs` (N, H, D) raw policy observations before each action,
 `actions` (N, H, A), `eef_pos` (N, H + 1, 3) measured end-effector positions from the start,
 `qpos` (N, H, nq) simulator joint positions before each action, `length` (N,) actions up to and
-including the successful step (H if none), `success` (N,), `aux` {name: (N, decisions, ...)} the
-strategy's diagnostics, and `seconds` (wall time including compilation).
+including the successful step (H if none), `success` (N,), `aux` {name: (N, ceil(H / Ta), ...)} the
+strategy's diagnostics per decision (zeros after the whole slice ended), and `seconds` (wall time
+including compilation).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from soe_jax.policies.policy import Policy
 
 
 @functools.lru_cache(maxsize=32)
-def _decisions_fn(env: manipulation.ManipulationEnv, policy: Policy, strategy, num_decisions: int):
+def decisions_fn(env: manipulation.ManipulationEnv, policy: Policy, strategy, num_decisions: int):
   ta, horizon = policy.n_action_steps, env.horizon
   step = jax.vmap(env.step)
 
@@ -64,7 +65,7 @@ def _decisions_fn(env: manipulation.ManipulationEnv, policy: Policy, strategy, n
   return run
 
 
-def _start(env, policy, reset_keys):
+def initial_carry(env, policy, reset_keys):
   state = jax.jit(jax.vmap(env.reset))(reset_keys)
   hist = jnp.repeat(manipulation.policy_obs(state.obs)[:, None], policy.n_obs_steps, axis=1)
   no = jnp.zeros(reset_keys.shape[0], bool)
@@ -74,13 +75,13 @@ def _start(env, policy, reset_keys):
 def _run_slice(env, policy, agent, strategy, reset_keys, key, decisions_per_call, bar):
   ta, horizon = policy.n_action_steps, env.horizon
   total = -(-horizon // ta)
-  carry = _start(env, policy, reset_keys)
+  carry = initial_carry(env, policy, reset_keys)
   start_eef = np.asarray(carry[0].obs["robot0_eef_pos"])
   records, auxes = [], []
   decided = 0
   while decided < total:
     n = min(decisions_per_call, total - decided)
-    carry, (rec, aux) = _decisions_fn(env, policy, strategy, n)(carry, agent, key)
+    carry, (rec, aux) = decisions_fn(env, policy, strategy, n)(carry, agent, key)
     rec, aux = jax.device_get((rec, aux))
     records.append(jax.tree.map(lambda x: x.reshape((-1,) + x.shape[2:]), rec))  # (steps, B, ...)
     auxes.append(aux)
@@ -93,10 +94,13 @@ def _run_slice(env, policy, agent, strategy, reset_keys, key, decisions_per_call
   pad = horizon - rec["obs"].shape[1]  # every episode ended early: pad to the horizon
   if pad:
     rec = {k: np.concatenate([v, np.repeat(v[:, -1:], pad, axis=1)], 1) for k, v in rec.items()}
+  aux = {k: cat([a[k] for a in auxes]) for k in auxes[0]}
+  aux = {k: np.concatenate([v, np.zeros((v.shape[0], total - v.shape[1]) + v.shape[2:], v.dtype)], 1)
+         for k, v in aux.items()}  # decisions after the whole batch ended: zeros
   _, _, _, success, length, _ = jax.device_get(carry)
   return dict(obs=rec["obs"], actions=rec["action"], qpos=rec["qpos"],
               eef_pos=np.concatenate([start_eef[:, None], rec["eef"]], 1), length=np.asarray(length),
-              success=np.asarray(success), aux={k: cat([a[k] for a in auxes]) for k in auxes[0]})
+              success=np.asarray(success), aux=aux)
 
 
 def rollout(env: manipulation.ManipulationEnv, policy: Policy, agent: Agent, strategy, reset_keys, key, *,
