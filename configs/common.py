@@ -74,6 +74,8 @@ def apply_presets(c: ml_collections.ConfigDict, arg: str | None) -> ml_collectio
     c.fit.update(num_steps=1500, chunk_size=250)
     c.rounds.update(num_rounds=1, refit_steps=1000)
     c.explore.steer.update(num_proposals=16, every=2, max_dims=4)
+    if c.explore.method == "soe_steer":  # a whole round of 500 steered episodes: lighter steering
+      c.explore.steer.update(num_proposals=8, every=4, max_dims=2)
   if presets.get("smoke"):
     head_kwargs.update(down_dims=(16, 32, 64), step_embed_dim=32)
     c.policy.bypass.hidden = 32

@@ -108,6 +108,22 @@ def round0_dir(config: ml_collections.ConfigDict, workdir: str) -> str:
   return os.path.join(base, round0_key(config))
 
 
+def load_config(workdir: str) -> ml_collections.ConfigDict:
+  """The config saved in a run's workdir."""
+  path = os.path.join(workdir, CONFIG_FILE)
+  if not os.path.exists(path):
+    raise FileNotFoundError(f"{workdir!r} is not a run directory: {CONFIG_FILE} is missing")
+  return ml_collections.ConfigDict(_read_json(path))
+
+
+def checkpoint_dir(config: ml_collections.ConfigDict, workdir: str, r: int) -> str:
+  """Where round `r`'s policy is saved (round 0: the shared round-0 directory)."""
+  path = os.path.join(round0_dir(config, workdir), "ckpt") if r == 0 else os.path.join(workdir, "rounds", str(r), "ckpt")
+  if not os.path.exists(os.path.join(path, checkpoint.CONFIG_FILE)):
+    raise FileNotFoundError(f"round {r} of {workdir!r} has no checkpoint at {path} (not run yet?)")
+  return path
+
+
 # -- data ---------------------------------------------------------------------------------------
 def split_policy_obs(obs: np.ndarray) -> dict:
   """(T, D) policy observations -> robomimic's keys (`manipulation.POLICY_OBS_KEYS`)."""

@@ -26,3 +26,15 @@ def _jitted(name: str, backend: str = "mujoco"):
 def jitted_env():
   """`jitted_env(name, backend="mujoco") -> (env, jit(reset), jit(step))`, shared across tests."""
   return _jitted
+
+
+@pytest.fixture(scope="session")
+def smoke_run(tmp_path_factory):
+  """A finished two-round `lift:smoke,soe` run: (runs root, config, workdir, summary)."""
+  from configs import lift as lift_config
+  from soe_jax import loop
+  root = tmp_path_factory.mktemp("runs")
+  config = lift_config.get_config("smoke,soe")
+  workdir = str(root / "lift-soe")
+  summary = loop.run(config, workdir, progress=False)
+  return root, config, workdir, summary

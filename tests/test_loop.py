@@ -1,5 +1,5 @@
-"""The experiment end to end on the smoke preset: outputs, resume after an interruption, the shared
-round 0, and a refused config."""
+"""The experiment end to end on the smoke preset (the `smoke_run` fixture): outputs, resume after an
+interruption, the shared round 0, re-scoring a checkpoint, and a refused config."""
 
 import json
 import os
@@ -17,17 +17,8 @@ def _numbers(workdir):
   return [{k: v for k, v in m.items() if k not in TIMING} for m in runlog.read_metrics(workdir)]
 
 
-@pytest.fixture(scope="module")
-def finished(tmp_path_factory):
-  root = tmp_path_factory.mktemp("runs")
-  config = lift_config.get_config("smoke,soe")
-  workdir = str(root / "lift-soe")
-  summary = loop.run(config, workdir, progress=False)
-  return root, config, workdir, summary
-
-
-def test_a_run_leaves_metrics_report_plots_and_data(finished):
-  root, config, workdir, summary = finished
+def test_a_run_leaves_metrics_report_plots_and_data(smoke_run):
+  root, config, workdir, summary = smoke_run
   lines = runlog.read_metrics(workdir)
   assert [(m["round"], m["phase"]) for m in lines] == [
       (0, "fit"), (0, "evaluate"), (1, "explore"), (1, "fit"), (1, "evaluate"), (2, "explore"), (2, "fit"), (2, "evaluate")]
@@ -50,8 +41,8 @@ def test_a_run_leaves_metrics_report_plots_and_data(finished):
   assert os.path.exists(os.path.join(loop.round0_dir(config, workdir), "ckpt", "config.json"))
 
 
-def test_an_interrupted_run_resumes_to_the_same_numbers(finished, monkeypatch):
-  root, config, workdir, _ = finished
+def test_an_interrupted_run_resumes_to_the_same_numbers(smoke_run, monkeypatch):
+  root, config, workdir, _ = smoke_run
   other = str(root / "lift-soe-interrupted")
   real = loop.Experiment.fit
   calls = []
@@ -73,8 +64,8 @@ def test_an_interrupted_run_resumes_to_the_same_numbers(finished, monkeypatch):
   np.testing.assert_array_equal(ev["success"], json.load(open(os.path.join(workdir, "rounds", "2", "evaluate.json")))["success"])
 
 
-def test_a_different_config_is_refused_naming_the_fields(finished):
-  _, config, workdir, _ = finished
+def test_a_different_config_is_refused_naming_the_fields(smoke_run):
+  _, config, workdir, _ = smoke_run
   changed = lift_config.get_config("smoke,soe")
   changed.explore.alpha = 3.0
   changed.fit.lr = 1e-3
@@ -82,8 +73,27 @@ def test_a_different_config_is_refused_naming_the_fields(finished):
     loop.run(changed, workdir, progress=False)
 
 
-def test_aggregate_table_over_runs(finished):
-  root, _, workdir, _ = finished
+def test_aggregate_table_over_runs(smoke_run):
+  root, _, workdir, _ = smoke_run
   md, csv_text = report.aggregate([workdir])
   assert "| lift | soe | 1 |" in md
   assert csv_text.splitlines()[0].startswith("task,method,seeds,pass_at_k")
+
+
+def test_a_saved_checkpoint_rescored_gives_the_same_success(smoke_run):
+  _, config, workdir, _ = smoke_run
+  from soe_jax import checkpoint
+  state = checkpoint.load(os.path.join(workdir, "rounds", "1", "ckpt")).state
+  rescored = loop.Experiment(config, workdir, progress=False).evaluate(state, 1)
+  saved = json.load(open(os.path.join(workdir, "rounds", "1", "evaluate.json")))
+  assert rescored["success"] == saved["success"] and rescored["jerk"] == pytest.approx(saved["jerk"])
+
+
+def test_method_presets_choose_the_strategy():
+  assert lift_config.get_config("dp").explore.strategy == "none"
+  assert lift_config.get_config("cpu,sime").explore.strategy == "sime"
+  assert lift_config.get_config("cpu,soe_steer").explore.steer.every == 4
+  with pytest.raises(ValueError, match="choose one method preset"):
+    lift_config.get_config("soe,dp")
+  with pytest.raises(ValueError, match="known presets: smoke, cpu, head, dp, sime, soe, soe_steer"):
+    lift_config.get_config("fast")
