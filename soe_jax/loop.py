@@ -168,17 +168,30 @@ def demonstrations(config: ml_collections.ConfigDict, env, progress: bool) -> li
   return episodes[:n]
 
 
-def build_buffer(config, policy, episode_sets: list[tuple[list[dict], int]]) -> buffer_lib.EpisodeBuffer:
-  """A buffer of fixed capacity from (episodes, source) pairs (source 0 = demonstrations, r = round r)."""
+def build_buffer(config, policy, episode_sets: list[tuple]) -> buffer_lib.EpisodeBuffer:
+  """A buffer of fixed capacity from (episodes, source[, steered]) tuples (source 0 = demonstrations,
+  r = round r; steered: episodes a person steered on the steering page)."""
   buf = buffer_lib.create(int(config.data.capacity), int(config.data.max_length), policy.obs_dim, policy.action_dim)
-  total = sum(len(e) for e, _ in episode_sets)
+  total = sum(len(e[0]) for e in episode_sets)
   if total > buf.capacity:
     raise ValueError(f"{total} episodes do not fit in data.capacity={buf.capacity}; raise it")
-  for episodes, source in episode_sets:
+  for episodes, source, *steered in episode_sets:
     if episodes:
+      n = len(episodes)
       p = buffer_lib.pad_episodes([policy_episode(e) for e in episodes], buf.max_length)
-      buf = buffer_lib.add(buf, p["obs"], p["actions"], p["length"], np.ones(len(episodes), bool), source)
+      buf = buffer_lib.add(buf, p["obs"], p["actions"], p["length"], np.ones(n, bool), source,
+                           np.full(n, bool(steered and steered[0])))
   return buf
+
+
+def steered_episodes(workdir: str, before_round: int) -> list[tuple]:
+  """Episodes saved from the steering page with the policies of rounds < `before_round`."""
+  out = []
+  for q in range(before_round):
+    path = os.path.join(workdir, "data", f"steered_round_{q}.hdf5")
+    if os.path.exists(path):
+      out.append((hdf5.read_episodes(path)[0], q, True))
+  return out
 
 
 # -- phases -------------------------------------------------------------------------------------
@@ -355,7 +368,7 @@ def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
       data_path = os.path.join(workdir, "data", f"round_{r}.hdf5")
       explore_path = os.path.join(rdir, "explore.json")
       if not os.path.exists(explore_path):
-        buf = build_buffer(config, exp.policy, [(demos, 0)] + [(e, s) for e, s in selected])
+        buf = build_buffer(config, exp.policy, [(demos, 0)] + selected)
         (rec, episodes), times = _timed(exp, lambda: exp.explore(state, r, buf))
         hdf5.write_episodes(data_path, episodes, dict(env_name=exp.env.name, source=f"round {r} exploration",
                                                       strategy=config.explore.strategy))
@@ -367,11 +380,11 @@ def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
       selected.append((episodes, r))
       fit_path, ckpt = os.path.join(rdir, "fit.json"), os.path.join(rdir, "ckpt")
       if not os.path.exists(fit_path):
-        buf = build_buffer(config, exp.policy, [(demos, 0)] + selected)
+        buf = build_buffer(config, exp.policy, [(demos, 0)] + selected + steered_episodes(workdir, r))
         init = state if config.rounds.refit == "continue" else None
         (state, info), times = _timed(exp, lambda: exp.fit(buf, norm, r, init))
         checkpoint.save(ckpt, state, config)
-        num = len(demos) + sum(len(e) for e, _ in selected)
+        num = len(demos) + sum(len(e[0]) for e in selected + steered_episodes(workdir, r))
         _write_json(fit_path, dict(info, round=r, phase="fit", num_episodes=num, **times))
       else:
         state = checkpoint.load(ckpt).state

@@ -1,0 +1,1 @@
+"""Human-guided steering: a local web page over a finished run."""

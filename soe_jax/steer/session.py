@@ -1,0 +1,187 @@
+"""One person steering one episode of a finished run's policy in its simulated task.
+
+The session holds the simulator state (one environment, C engine), the observation history and the
+episode so far. `proposals(dim)` decodes proposals along one effective latent dimension and keeps a
+diverse few (farthest point sampling); `execute(id)` runs the chosen one open loop. `save()` appends
+the episode, marked as steered, to `data/steered_round_<R>.hdf5` in the run, which the next round's
+fit includes. Every request is checked first (unknown proposal id, wrong round, finished episode) and
+a bad one raises `SteeringError` without changing anything.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import threading
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+
+from soe_jax import buffer as buffer_lib
+from soe_jax import checkpoint, loop
+from soe_jax.data import hdf5
+from soe_jax.envs import manipulation
+from soe_jax.explore import steering, strategies
+
+IMAGE_SIZE = 384
+
+
+class SteeringError(ValueError):
+  """A request the session refuses; nothing was changed."""
+
+
+def steered_path(workdir: str, r: int) -> str:
+  """Where episodes steered with round r's policy go (`loop.steered_episodes` reads them)."""
+  return os.path.join(workdir, "data", f"steered_round_{r}.hdf5")
+
+
+class SteeringSession:
+  def __init__(self, workdir: str, round_: int | None = None, seed: int = 0, image_size: int = IMAGE_SIZE):
+    self.workdir = os.path.abspath(workdir)
+    self.config = loop.load_config(self.workdir)
+    last = max([0] + [int(d) for d in os.listdir(os.path.join(self.workdir, "rounds"))
+                      if os.path.exists(os.path.join(self.workdir, "rounds", d, "ckpt"))]
+               if os.path.isdir(os.path.join(self.workdir, "rounds")) else [0])
+    self.round = last if round_ is None else int(round_)
+    loaded = checkpoint.load(loop.checkpoint_dir(self.config, self.workdir, self.round))
+    self.policy, self.agent = loaded.policy, strategies.Agent.from_state(loaded.state)
+    env_config = self.config.env.copy_and_resolve_references()
+    env_config.backend = "mujoco"
+    self.env = loop._env(env_config.to_json())
+    self.lock = threading.Lock()
+    self._step = jax.jit(jax.vmap(self.env.step))
+    self._reset = jax.jit(jax.vmap(self.env.reset))
+    steer = self.config.explore.steer
+    self._candidates = jax.jit(lambda agent, hist, key, dim: strategies.steering_candidates(
+        self.policy, agent, hist, key, (dim,), float(self.config.explore.alpha), int(steer.num_proposals),
+        int(steer.num_choices)), static_argnums=3)
+    demos, _ = hdf5.read_episodes(os.path.join(loop.round0_dir(self.config, self.workdir), "demos.hdf5"))
+    buf = loop.build_buffer(self.config, self.policy, [(demos, 0)])
+    windows = buffer_lib.sample_windows(buf, jax.random.PRNGKey(0), int(steer.snr_windows), self.policy.horizon,
+                                        self.policy.n_obs_steps, self.policy.n_action_steps)
+    self.snr = np.asarray(steering.latent_snr(self.policy, self.agent, windows["obs"]))
+    self.dims = steering.steering_dims(jnp.asarray(self.snr), float(steer.threshold_db)) or (int(np.argmax(self.snr)),)
+    self.image_size = image_size
+    self.renderer = None  # made on first use, on the thread that renders
+    self.data = mujoco.MjData(self.env.mj_model)
+    self.saved = 0
+    self.reset(seed)
+
+  # -- state ------------------------------------------------------------------------------------
+  def reset(self, seed: int = 0) -> dict:
+    self.seed = int(seed)
+    self.key = jax.random.fold_in(jax.random.PRNGKey(int(self.config.seed) + 7), self.seed)
+    self.state = self._reset(jax.random.split(jax.random.PRNGKey(self.seed), 1))
+    obs = manipulation.policy_obs(self.state.obs)
+    self.hist = jnp.repeat(obs[:, None], self.policy.n_obs_steps, axis=1)
+    self.episode = dict(obs=[], actions=[], states=[])
+    self.eef = [np.asarray(self.state.obs["robot0_eef_pos"][0])]
+    self.success = False
+    self.finished = False
+    self.decision = 0
+    self.proposal_set = None  # (dim, candidates (C, Ta, A), token)
+    return self.view()
+
+  def _check_round(self, round_) -> None:
+    if round_ is not None and int(round_) != self.round:
+      raise SteeringError(f"this page steers round {self.round}, not round {round_}; reload the page")
+
+  def proposals(self, dim: int, round_=None) -> dict:
+    self._check_round(round_)
+    if self.finished:
+      raise SteeringError("the episode is over: reset it or save it")
+    try:
+      dim = int(dim)
+    except (TypeError, ValueError):
+      raise SteeringError(f"dimension must be an integer, got {dim!r}") from None
+    if dim not in self.dims:
+      raise SteeringError(f"dimension {dim} is not an effective dimension; choose one of {list(self.dims)}")
+    key = jax.random.fold_in(self.key, 1000 * self.decision + dim)
+    cands, _ = self._candidates(self.agent, self.hist, key, dim)
+    self.proposal_set = (dim, np.asarray(cands[0]), f"{self.decision}-{dim}")
+    return self.view()
+
+  def execute(self, proposal_id, round_=None) -> dict:
+    """Run proposal `proposal_id` ('<decision>-<dim>-<index>') of the current set open loop."""
+    self._check_round(round_)
+    if self.finished:
+      raise SteeringError("the episode is over: reset it or save it")
+    if self.proposal_set is None:
+      raise SteeringError("no proposals yet: choose a dimension first")
+    dim, cands, token = self.proposal_set
+    prefix, _, index = str(proposal_id).rpartition("-")
+    if prefix != token or not index.isdigit() or int(index) >= len(cands):
+      raise SteeringError(f"unknown proposal {proposal_id!r}; the current ones are {token}-0 .. {token}-{len(cands) - 1}")
+    for action in cands[int(index)]:
+      self.episode["obs"].append(np.asarray(self.hist[0, -1]))
+      self.episode["states"].append(np.asarray(self.state.pipeline_state.qpos[0]))
+      self.episode["actions"].append(np.asarray(action))
+      self.state = self._step(self.state, jnp.asarray(action)[None])
+      obs = manipulation.policy_obs(self.state.obs)
+      self.hist = jnp.concatenate([self.hist[:, 1:], obs[:, None]], axis=1)
+      self.eef.append(np.asarray(self.state.obs["robot0_eef_pos"][0]))
+      if bool(self.state.metrics["success"][0] > 0):
+        self.success = True
+        break
+    self.decision += 1
+    self.proposal_set = None
+    self.finished = self.success or len(self.episode["actions"]) >= self.env.horizon
+    return self.view()
+
+  def finish(self) -> dict:
+    self.finished = True
+    self.proposal_set = None
+    return self.view()
+
+  def save(self, round_=None) -> dict:
+    """Append the episode, marked as steered, to the run's data for the next round; then reset."""
+    self._check_round(round_)
+    if not self.episode["actions"]:
+      raise SteeringError("nothing to save: execute at least one proposal first")
+    path = steered_path(self.workdir, self.round)
+    episodes = hdf5.read_episodes(path)[0] if os.path.exists(path) else []
+    obs = np.stack(self.episode["obs"])
+    episodes.append(dict(obs=loop.split_policy_obs(obs), actions=np.stack(self.episode["actions"]),
+                         states=np.stack(self.episode["states"]), success=self.success))
+    hdf5.write_episodes(path, episodes, dict(env_name=self.env.name, source=f"steered with round {self.round}",
+                                             steered=True))
+    self.saved = len(episodes)
+    return self.reset(self.seed + 1)
+
+  # -- what the page shows ----------------------------------------------------------------------
+  def _camera(self):
+    mujoco.mj_forward(self.env.mj_model, self.data)
+    cam = self.env.mj_model.camera("agentview").id
+    return self.data.cam_xpos[cam].copy(), self.data.cam_xmat[cam].reshape(3, 3).copy(), float(self.env.mj_model.cam_fovy[cam])
+
+  def project(self, points: np.ndarray) -> list[list[float]]:
+    """World points (N, 3) -> pixel coordinates in the rendered image (x right, y down)."""
+    pos, rot, fovy = self._camera()
+    size = self.image_size
+    c = (np.asarray(points) - pos) @ rot  # camera frame: x right, y up, looking along -z
+    f = 0.5 * size / np.tan(np.deg2rad(fovy) / 2)
+    return [[float(size / 2 + f * x / -z), float(size / 2 - f * y / -z)] for x, y, z in c]
+
+  def image_png(self) -> bytes:
+    import matplotlib.image
+    self.data.qpos[:] = np.asarray(self.state.pipeline_state.qpos[0])
+    mujoco.mj_forward(self.env.mj_model, self.data)
+    if self.renderer is None:
+      self.renderer = mujoco.Renderer(self.env.mj_model, self.image_size, self.image_size)
+    self.renderer.update_scene(self.data, camera="agentview")
+    buf = io.BytesIO()
+    matplotlib.image.imsave(buf, self.renderer.render(), format="png")
+    return buf.getvalue()
+
+  def view(self) -> dict:
+    props = []
+    if self.proposal_set is not None:
+      dim, cands, token = self.proposal_set
+      props = [dict(id=f"{token}-{i}", path=self.project(c[:, :3])) for i, c in enumerate(cands)]
+    return dict(round=self.round, step=len(self.episode["actions"]), horizon=self.env.horizon, success=self.success,
+                finished=self.finished, saved=self.saved, seed=self.seed,
+                dims=[dict(dim=int(d), snr_db=round(float(self.snr[d]), 2)) for d in self.dims],
+                chosen_dim=None if self.proposal_set is None else int(self.proposal_set[0]), proposals=props,
+                path=self.project(np.stack(self.eef)))

@@ -1,0 +1,89 @@
+"""The steering page in a real headless browser (Debian's chromium through Playwright): choose a
+dimension, click a proposal, see the state change, save, find the steered episode on disk; bad
+requests get a clear error and change nothing."""
+
+import json
+import os
+import threading
+import urllib.error
+import urllib.request
+
+import pytest
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+CHROMIUM = "/usr/bin/chromium"
+
+
+@pytest.fixture(scope="module")
+def page_server(smoke_run):
+  from soe_jax.steer import server, session
+  _, _, workdir, _ = smoke_run
+  s = session.SteeringSession(workdir)
+  httpd = server.serve(s, "127.0.0.1", 0)
+  thread = threading.Thread(target=httpd.serve_forever, daemon=True)
+  thread.start()
+  yield f"http://127.0.0.1:{httpd.server_address[1]}", s, workdir
+  httpd.shutdown()
+  httpd.server_close()
+
+
+def _post(url, body):
+  req = urllib.request.Request(url, json.dumps(body).encode(), {"Content-Type": "application/json"})
+  try:
+    with urllib.request.urlopen(req) as r:
+      return r.status, json.load(r)
+  except urllib.error.HTTPError as e:
+    return e.code, json.load(e)
+
+
+def test_steer_a_proposal_and_save_it_from_the_browser(page_server):
+  from playwright.sync_api import sync_playwright
+
+  from soe_jax.data import hdf5
+  from soe_jax.steer.session import steered_path
+  url, session, workdir = page_server
+  path = steered_path(workdir, session.round)
+  assert not os.path.exists(path)
+  with sync_playwright() as p:
+    browser = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
+    page = browser.new_page()
+    page.goto(url)
+    page.wait_for_selector(".dim")
+    assert page.inner_text("#step") == "0"
+    page.click(".dim >> nth=0")
+    page.wait_for_selector("#proposal-0")
+    assert page.locator(".prop").count() == session.config.explore.steer.num_choices
+    assert page.locator("#overlay path").count() == 1 + session.config.explore.steer.num_choices  # paths drawn
+    page.click("#proposal-0")
+    page.wait_for_function("document.getElementById('step').textContent !== '0'")
+    steps = int(page.inner_text("#step"))
+    assert 1 <= steps <= session.policy.n_action_steps
+    page.reload()  # the state lives in the server
+    page.wait_for_selector(".dim")
+    assert int(page.inner_text("#step")) == steps
+    page.click("#save")
+    page.wait_for_function("document.getElementById('saved').textContent === '1'")
+    assert page.inner_text("#step") == "0"  # a fresh episode after saving
+    browser.close()
+  episodes, env_args = hdf5.read_episodes(path)
+  assert len(episodes) == 1 and episodes[0]["actions"].shape == (steps, 10)
+  assert env_args["steered"] is True
+
+
+def test_nonsense_requests_are_refused_and_change_nothing(page_server):
+  url, session, workdir = page_server
+  before = json.load(urllib.request.urlopen(url + "/api/state"))
+  for action, body, message in [("/api/execute", {"id": "7-7-7", "round": session.round}, "no proposals yet"),
+                                ("/api/proposals", {"dim": 999, "round": session.round}, "not an effective dimension"),
+                                ("/api/proposals", {"dim": session.dims[0], "round": session.round + 5}, "not round"),
+                                ("/api/save", {"round": session.round}, "nothing to save"),
+                                ("/api/launch", {}, "no action")]:
+    code, data = _post(url + action, body)
+    assert code in (400, 404) and message in data["error"], (action, data)
+  code, data = _post(url + "/api/proposals", {"dim": session.dims[0], "round": session.round})
+  assert code == 200
+  code, data = _post(url + "/api/execute", {"id": "0-0-99", "round": session.round})
+  assert code == 400 and "unknown proposal" in data["error"]
+  after = json.load(urllib.request.urlopen(url + "/api/state"))
+  assert after["step"] == before["step"] and after["saved"] == before["saved"]
