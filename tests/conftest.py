@@ -1,6 +1,9 @@
 """Shared fixtures: the persistent compilation cache, and environments compiled once per session."""
 
 import functools
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # headless rendering; must precede the first import of mujoco
 
 import jax
 import pytest

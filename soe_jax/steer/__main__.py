@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import os
 
-from absl import app, flags, logging
+os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported
+
+from absl import app, flags, logging  # noqa: E402
 
 flags.DEFINE_string("workdir", None, "A run directory written by python -m soe_jax.main.")
 flags.DEFINE_integer("round", None, "The round whose policy to steer (default: the last finished).")
