@@ -345,8 +345,23 @@ def _line(rec: dict, method: str) -> dict:
   return line
 
 
+REFITS = ("continue", "scratch")
+
+
+def validate(config: ml_collections.ConfigDict) -> None:
+  """Names that would otherwise only fail after round 0's fit: strategy, selection, re-fit mode."""
+  if config.explore.strategy not in strategies.STRATEGIES:
+    raise ValueError(f"unknown exploration strategy {config.explore.strategy!r}; known strategies: "
+                     f"{', '.join(strategies.STRATEGIES)}")
+  if config.rounds.select not in select_lib.SELECTIONS:
+    raise ValueError(f"unknown selection {config.rounds.select!r}; known selections: {', '.join(select_lib.SELECTIONS)}")
+  if config.rounds.refit not in REFITS:
+    raise ValueError(f"unknown re-fit mode {config.rounds.refit!r}; known: {', '.join(REFITS)}")
+
+
 def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) -> dict:
   """Run (or resume) the experiment in `workdir`; returns the report's numbers."""
+  validate(config)
   os.makedirs(workdir, exist_ok=True)
   check_config(workdir, config)
   seeds_path = os.path.join(workdir, SEEDS_FILE)

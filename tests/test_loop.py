@@ -97,3 +97,15 @@ def test_method_presets_choose_the_strategy():
     lift_config.get_config("soe,dp")
   with pytest.raises(ValueError, match="known presets: smoke, cpu, head, dp, sime, soe, soe_steer"):
     lift_config.get_config("fast")
+
+
+def test_unknown_names_are_refused_before_any_work(tmp_path):
+  for field, value, message in [("explore.strategy", "noise", "known strategies: none, sime"),
+                                ("rounds.select", "best", "known selections: first_success"),
+                                ("rounds.refit", "warm", "known: continue, scratch")]:
+    config = lift_config.get_config("smoke")
+    section, name = field.split(".")
+    config[section][name] = value
+    with pytest.raises(ValueError, match=message):
+      loop.run(config, str(tmp_path / "run"), progress=False)
+    assert not os.path.exists(tmp_path / "run")
