@@ -85,14 +85,21 @@ def _read_json(path: str):
 
 
 def check_config(workdir: str, config: ml_collections.ConfigDict) -> None:
-  """Save the config in a new workdir; refuse one that differs from a workdir's saved config."""
+  """Save the config in a new workdir; refuse one that differs from a workdir's saved config, except
+  for more `rounds.num_rounds` (extending a finished run, e.g. after steering its last round)."""
   path = os.path.join(workdir, CONFIG_FILE)
   current = _plain(config)
   if os.path.exists(path):
-    diff = config_diff(_read_json(path), current)
+    saved = _read_json(path)
+    extended = current["rounds"]["num_rounds"] > saved["rounds"]["num_rounds"]
+    if extended:
+      saved["rounds"]["num_rounds"] = current["rounds"]["num_rounds"]
+    diff = config_diff(saved, current)
     if diff:
       raise ValueError(f"the config does not match the one saved in {path}; differing fields:\n  " + "\n  ".join(diff)
                        + "\nuse a new --workdir, or the saved config")
+    if extended:
+      _write_json(path, current)
   else:
     _write_json(path, current)
 

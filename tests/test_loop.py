@@ -109,3 +109,14 @@ def test_unknown_names_are_refused_before_any_work(tmp_path):
     with pytest.raises(ValueError, match=message):
       loop.run(config, str(tmp_path / "run"), progress=False)
     assert not os.path.exists(tmp_path / "run")
+
+
+def test_a_finished_run_can_be_extended_by_more_rounds(tmp_path):
+  saved = lift_config.get_config("smoke")
+  loop.check_config(str(tmp_path), saved)
+  more = lift_config.get_config("smoke")
+  more.rounds.num_rounds = saved.rounds.num_rounds + 1
+  loop.check_config(str(tmp_path), more)  # accepted, and saved
+  assert loop.load_config(str(tmp_path)).rounds.num_rounds == saved.rounds.num_rounds + 1
+  with pytest.raises(ValueError, match="rounds.num_rounds"):
+    loop.check_config(str(tmp_path), saved)  # fewer rounds than saved: refused
