@@ -131,6 +131,14 @@ def checkpoint_dir(config: ml_collections.ConfigDict, workdir: str, r: int) -> s
   return path
 
 
+def last_round(config: ml_collections.ConfigDict, workdir: str) -> int:
+  """The last round with a saved checkpoint (0 if only round 0 has one)."""
+  rounds_dir = os.path.join(workdir, "rounds")
+  done = [int(d) for d in os.listdir(rounds_dir) if d.isdigit() and
+          os.path.exists(os.path.join(rounds_dir, d, "ckpt", checkpoint.CONFIG_FILE))] if os.path.isdir(rounds_dir) else []
+  return max(done, default=0)
+
+
 # -- data ---------------------------------------------------------------------------------------
 def split_policy_obs(obs: np.ndarray) -> dict:
   """(T, D) policy observations -> robomimic's keys (`manipulation.POLICY_OBS_KEYS`)."""
@@ -220,7 +228,8 @@ def _rollout_metrics(out: dict, tries: int) -> dict:
 
 
 @functools.lru_cache(maxsize=8)
-def _env(env_json: str):
+def task_env(env_json: str):
+  """The task `config.env.to_json()` describes, built once per process."""
   return registry.env_from_config(ml_collections.ConfigDict(json.loads(env_json)))
 
 
@@ -235,7 +244,7 @@ class Experiment:
 
   def __init__(self, config: ml_collections.ConfigDict, workdir: str, progress: bool = True):
     self.config, self.workdir, self.progress = config, os.path.abspath(workdir), progress
-    self.env = _env(config.env.to_json())
+    self.env = task_env(config.env.to_json())
     self.policy = _policy(json.dumps({k: _plain(config)[k] for k in ("env", "policy")}))
     self.root = jax.random.PRNGKey(int(config.seed))
     self.timer = runlog.CompileTimer()
@@ -268,9 +277,8 @@ class Experiment:
     dims = ()
     extra = {}
     if c.strategy == "soe_steer":
-      windows = buffer_lib.sample_windows(buf, jax.random.fold_in(self.key(r, _EXPLORE), 1), int(c.steer.snr_windows),
-                                          self.policy.horizon, self.policy.n_obs_steps, self.policy.n_action_steps)
-      snr = steering.latent_snr(self.policy, strategies.Agent.from_state(state), windows["obs"])
+      snr = steering.buffer_snr(self.policy, strategies.Agent.from_state(state), buf,
+                                jax.random.fold_in(self.key(r, _EXPLORE), 1), int(c.steer.snr_windows))
       dims = steering.steering_dims(snr, float(c.steer.threshold_db), int(c.steer.max_dims) or None)
       extra = dict(snr_db=[round(float(x), 2) for x in snr], steer_dims=list(dims))
     strategy = strategies.make_strategy(c.strategy, c, env=self.env, dims=dims)
@@ -301,19 +309,25 @@ class Experiment:
                                  c.fit, progress=self.progress, desc=f"round {r} fit")
     return state, dict(steps=steps, final_loss=history[-1]["loss"], loss_curve=[h["loss"] for h in history])
 
+  def timed(self, fn):
+    """(fn(), {time_total_s, time_compile_s})."""
+    self.timer.take()
+    t = time.perf_counter()
+    result = fn()
+    total = time.perf_counter() - t
+    return result, dict(time_total_s=round(total, 2), time_compile_s=round(min(self.timer.take(), total), 2))
 
-def _timed(exp: Experiment, fn):
-  exp.timer.take()
-  t = time.perf_counter()
-  result = fn()
-  total = time.perf_counter() - t
-  return result, dict(time_total_s=round(total, 2), time_compile_s=round(min(exp.timer.take(), total), 2))
+
+def demonstrations_path(config: ml_collections.ConfigDict, workdir: str) -> str:
+  """The run's demonstrations, in its shared round-0 directory."""
+  return os.path.join(round0_dir(config, workdir), "demos.hdf5")
 
 
-def round0(exp: Experiment, directory: str) -> tuple:
+def round0(exp: Experiment) -> tuple:
   """Round 0 in its shared directory: demonstrations, fit, evaluation (each reused when present)."""
+  directory = round0_dir(exp.config, exp.workdir)
   os.makedirs(directory, exist_ok=True)
-  demos_path = os.path.join(directory, "demos.hdf5")
+  demos_path = demonstrations_path(exp.config, exp.workdir)
   if not os.path.exists(demos_path):
     episodes = demonstrations(exp.config, exp.env, exp.progress)
     hdf5.write_episodes(demos_path, episodes, dict(env_name=exp.env.name, source="demonstrations"))
@@ -327,12 +341,12 @@ def round0(exp: Experiment, directory: str) -> tuple:
     state = checkpoint.load(ckpt).state
   else:
     buf = build_buffer(exp.config, exp.policy, [(demos, 0)])
-    (state, info), times = _timed(exp, lambda: exp.fit(buf, norm, 0))
+    (state, info), times = exp.timed(lambda: exp.fit(buf, norm, 0))
     checkpoint.save(ckpt, state, exp.config)
     _write_json(fit_path, dict(info, round=0, phase="fit", num_episodes=len(demos), **times))
   eval_path = os.path.join(directory, "evaluate.json")
   if not os.path.exists(eval_path):
-    rec, times = _timed(exp, lambda: exp.evaluate(state, 0))
+    rec, times = exp.timed(lambda: exp.evaluate(state, 0))
     _write_json(eval_path, dict(rec, round=0, phase="evaluate", **times))
   return demos, norm, state
 
@@ -357,11 +371,8 @@ REFITS = ("continue", "scratch")
 
 def validate(config: ml_collections.ConfigDict) -> None:
   """Names that would otherwise only fail after round 0's fit: strategy, selection, re-fit mode."""
-  if config.explore.strategy not in strategies.STRATEGIES:
-    raise ValueError(f"unknown exploration strategy {config.explore.strategy!r}; known strategies: "
-                     f"{', '.join(strategies.STRATEGIES)}")
-  if config.rounds.select not in select_lib.SELECTIONS:
-    raise ValueError(f"unknown selection {config.rounds.select!r}; known selections: {', '.join(select_lib.SELECTIONS)}")
+  strategies.check_name(config.explore.strategy)
+  select_lib.check_name(config.rounds.select)
   if config.rounds.refit not in REFITS:
     raise ValueError(f"unknown re-fit mode {config.rounds.refit!r}; known: {', '.join(REFITS)}")
 
@@ -379,7 +390,7 @@ def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
   logged = {(m["round"], m["phase"]) for m in runlog.read_metrics(workdir)}
   try:
     base = round0_dir(config, workdir)
-    demos, norm, state = round0(exp, base)
+    demos, norm, state = round0(exp)
     for phase in ("fit", "evaluate"):
       if (0, phase) not in logged:
         log.write(_line(_read_json(os.path.join(base, f"{phase}.json")), config.explore.method))
@@ -391,7 +402,7 @@ def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
       explore_path = os.path.join(rdir, "explore.json")
       if not os.path.exists(explore_path):
         buf = build_buffer(config, exp.policy, [(demos, 0)] + selected)
-        (rec, episodes), times = _timed(exp, lambda: exp.explore(state, r, buf))
+        (rec, episodes), times = exp.timed(lambda: exp.explore(state, r, buf))
         hdf5.write_episodes(data_path, episodes, dict(env_name=exp.env.name, source=f"round {r} exploration",
                                                       strategy=config.explore.strategy))
         _write_json(explore_path, dict(rec, round=r, phase="explore", **times))
@@ -402,19 +413,19 @@ def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
       selected.append((episodes, r))
       fit_path, ckpt = os.path.join(rdir, "fit.json"), os.path.join(rdir, "ckpt")
       if not os.path.exists(fit_path):
-        buf = build_buffer(config, exp.policy, [(demos, 0)] + selected + steered_episodes(workdir, r))
+        sets = [(demos, 0)] + selected + steered_episodes(workdir, r)
+        buf = build_buffer(config, exp.policy, sets)
         init = state if config.rounds.refit == "continue" else None
-        (state, info), times = _timed(exp, lambda: exp.fit(buf, norm, r, init))
+        (state, info), times = exp.timed(lambda: exp.fit(buf, norm, r, init))
         checkpoint.save(ckpt, state, config)
-        num = len(demos) + sum(len(e[0]) for e in selected + steered_episodes(workdir, r))
-        _write_json(fit_path, dict(info, round=r, phase="fit", num_episodes=num, **times))
+        _write_json(fit_path, dict(info, round=r, phase="fit", num_episodes=sum(len(e[0]) for e in sets), **times))
       else:
         state = checkpoint.load(ckpt).state
       if (r, "fit") not in logged:
         log.write(_line(_read_json(fit_path), config.explore.method))
       eval_path = os.path.join(rdir, "evaluate.json")
       if not os.path.exists(eval_path):
-        rec, times = _timed(exp, lambda: exp.evaluate(state, r))
+        rec, times = exp.timed(lambda: exp.evaluate(state, r))
         _write_json(eval_path, dict(rec, round=r, phase="evaluate", **times))
       if (r, "evaluate") not in logged:
         log.write(_line(_read_json(eval_path), config.explore.method))

@@ -37,6 +37,11 @@ def _sr(m: dict | None) -> str:
 
 def summarize(workdir: str) -> dict:
   """The run's numbers: method, task, seed, and the table row."""
+  return _summarize(workdir)[0]
+
+
+def _summarize(workdir: str) -> tuple[dict, dict]:
+  """(summary, {(round, phase): metrics line})."""
   lines = runlog.read_metrics(workdir)
   if not lines:
     raise FileNotFoundError(f"{workdir} has no metrics.jsonl (not a run directory, or nothing finished yet)")
@@ -60,8 +65,7 @@ def summarize(workdir: str) -> dict:
     out.update(sr_before=before["success_rate"], sr_after=after["success_rate"], sr_episodes=after["num_rollouts"],
                sr_after_wilson=(after["wilson_low"], after["wilson_high"]), improvement_abs=imp["absolute"],
                improvement_rel=imp["relative"])
-  out["_phases"] = phases
-  return out
+  return out, phases
 
 
 def _improvement(s: dict) -> str:
@@ -74,8 +78,7 @@ def _improvement(s: dict) -> str:
 
 def write(workdir: str) -> dict:
   """Write `report.md` and the plots; return the summary."""
-  s = summarize(workdir)
-  phases = s.pop("_phases")
+  s, phases = _summarize(workdir)
   k = s.get("k", 5)
   md = [f"# {s['task']}: {s['method']} (seed {s['seed']})", "",
         f"| Method | Pass@{k} | Avg. jerk (m/s^3) | Rollouts | Success before | Success after | Relative improvement |",
@@ -156,7 +159,6 @@ def aggregate(workdirs: list[str]) -> tuple[str, str]:
   groups: dict[tuple, list[dict]] = {}
   for w in workdirs:
     s = summarize(w)
-    s.pop("_phases")
     groups.setdefault((s["task"], s["method"]), []).append(s)
   header = ["task", "method", "seeds", "pass_at_k", "jerk", "rollouts", "sr_before", "sr_after", "sr_after_episodes",
             "sr_after_wilson", "improvement_abs", "improvement_rel"]

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import json
 import os
-import time
 
 from absl import app, flags, logging
 from ml_collections import config_flags
@@ -30,21 +29,20 @@ def compare(config, workdir: str, names, num_start_states: int, tries: int, prog
   from soe_jax import loop
   os.makedirs(workdir, exist_ok=True)
   exp = loop.Experiment(config, workdir, progress)
-  demos, _, state = loop.round0(exp, loop.round0_dir(config, workdir))
-  base = json.load(open(os.path.join(loop.round0_dir(config, workdir), "evaluate.json")))
+  demos, _, state = loop.round0(exp)
+  with open(os.path.join(loop.round0_dir(config, workdir), "evaluate.json")) as f:
+    base = json.load(f)
   buf = loop.build_buffer(config, exp.policy, [(demos, 0)])
   rows = []
   for name in names:
     c = config.copy_and_resolve_references()
     c.explore.update(strategy=name, num_start_states=num_start_states, tries=tries)
     exp.config = c
-    exp.timer.take()
-    t = time.perf_counter()
-    rec, _ = exp.explore(state, 1, buf)
-    wall = time.perf_counter() - t
+    (rec, _), times = exp.timed(lambda: exp.explore(state, 1, buf))
     rows.append(dict(strategy=name, pass_at_k=rec["pass_at_k"], k=tries, rollouts=rec["rollouts"],
                      rollouts_mean=rec["rollouts_mean"], jerk=rec["jerk"], success_rate=rec["success_rate"],
-                     episodes=rec["num_rollouts"], wall_s=round(wall, 1), compile_s=round(exp.timer.take(), 1),
+                     episodes=rec["num_rollouts"], wall_s=round(times["time_total_s"], 1),
+                     compile_s=round(times["time_compile_s"], 1),
                      steer_dims=rec.get("steer_dims"), steered_fraction=rec.get("steered_fraction")))
     print(json.dumps(rows[-1]), flush=True)
   md = [f"Base policy: {config.env.task}, {config.data.num_demos} demonstrations, evaluation success "
@@ -58,7 +56,7 @@ def compare(config, workdir: str, names, num_start_states: int, tries: int, prog
   with open(os.path.join(workdir, "compare.md"), "w") as f:
     f.write("\n".join(md) + "\n")
   with open(os.path.join(workdir, "compare.json"), "w") as f:
-    json.dump(dict(base=base | {"success": None}, rows=rows), f, indent=2)
+    json.dump(dict(base={k: v for k, v in base.items() if k != "success"}, rows=rows), f, indent=2)
   print("\n".join(md))
   return rows
 

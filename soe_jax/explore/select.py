@@ -14,7 +14,13 @@ import numpy as np
 SELECTIONS = ("first_success", "all_successes", "sime")
 
 
+def check_name(how: str) -> None:
+  if how not in SELECTIONS:
+    raise ValueError(f"unknown selection {how!r}; known selections: {', '.join(SELECTIONS)}")
+
+
 def select(success, how: str = "first_success", sime_threshold: float = 0.5) -> np.ndarray:
+  check_name(how)
   s = np.asarray(success, bool)
   if how == "first_success":
     first = np.zeros_like(s)
@@ -23,6 +29,4 @@ def select(success, how: str = "first_success", sime_threshold: float = 0.5) -> 
     return first
   if how == "all_successes":
     return s.copy()
-  if how == "sime":
-    return s & (s.mean(axis=1, keepdims=True) < sime_threshold)
-  raise ValueError(f"unknown selection {how!r}; known selections: {', '.join(SELECTIONS)}")
+  return s & (s.mean(axis=1, keepdims=True) < sime_threshold)  # sime

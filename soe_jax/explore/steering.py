@@ -12,6 +12,8 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from soe_jax import buffer as buffer_lib
+
 
 def snr_db(mu: jax.Array, log_std: jax.Array) -> jax.Array:
   """mu, log_std (N, d) over N observations -> (d,) SNR in dB."""
@@ -61,6 +63,12 @@ def latent_snr(policy, agent, obs_history: jax.Array) -> jax.Array:
   """(d,) SNR in dB of the policy's latent over raw observation histories (N, To, D)."""
   cond = policy.encode(agent.params, agent.normalizer.normalize_obs(obs_history))
   return snr_db(*policy.latent(agent.params, cond))
+
+
+def buffer_snr(policy, agent, buf, key: jax.Array, num_windows: int) -> jax.Array:
+  """(d,) SNR in dB over `num_windows` observation histories sampled from an episode buffer."""
+  windows = buffer_lib.sample_windows(buf, key, num_windows, policy.horizon, policy.n_obs_steps, policy.n_action_steps)
+  return latent_snr(policy, agent, windows["obs"])
 
 
 def steering_dims(snr: jax.Array, threshold_db: float = 0.0, max_dims: int | None = None) -> tuple[int, ...]:

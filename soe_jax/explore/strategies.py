@@ -228,11 +228,17 @@ class Steer:
 STRATEGIES = ("none", "sime", "soe", "soe_steer", "expert")
 
 
+def check_name(name: str) -> None:
+  if name not in STRATEGIES:
+    raise ValueError(f"unknown exploration strategy {name!r}; known strategies: {', '.join(STRATEGIES)}")
+
+
 def make_strategy(name: str, config: ml_collections.ConfigDict | None = None, *,
                   env: manipulation.ManipulationEnv | None = None, dims: tuple[int, ...] = ()):
   """Strategy `name` with settings from `config` (an `explore` config section: alpha, sime.{scale,
   tau1, tau2}, steer.{num_proposals, num_choices, every}). `soe_steer` and `expert` need the task's
   `env`; `soe_steer` also the effective latent dimensions `dims`."""
+  check_name(name)
   c = config if config is not None else ml_collections.ConfigDict()
   if name == "none":
     return Base()
@@ -241,14 +247,13 @@ def make_strategy(name: str, config: ml_collections.ConfigDict | None = None, *,
     return Sime(scale=float(s.get("scale", 0.01)), tau1=float(s.get("tau1", 0.0)), tau2=float(s.get("tau2", 1.0)))
   if name == "soe":
     return Soe(alpha=float(c.get("alpha", 2.0)))
-  if name in ("soe_steer", "expert"):
-    if env is None:
-      raise ValueError(f"strategy {name!r} needs the task's environment (env=...)")
-    expert = expert_registry.make_expert(env.name)
-    if name == "expert":
-      return Expert(env, expert)
-    s = c.get("steer", {})
-    return Steer(chooser=ScriptedChooser(env, expert), dims=tuple(int(d) for d in dims),
-                 alpha=float(c.get("alpha", 2.0)), num_proposals=int(s.get("num_proposals", 32)),
-                 num_choices=int(s.get("num_choices", 5)), every=int(s.get("every", 1)))
-  raise ValueError(f"unknown exploration strategy {name!r}; known strategies: {', '.join(STRATEGIES)}")
+  # soe_steer and expert follow the task's demonstrator
+  if env is None:
+    raise ValueError(f"strategy {name!r} needs the task's environment (env=...)")
+  expert = expert_registry.make_expert(env.name)
+  if name == "expert":
+    return Expert(env, expert)
+  s = c.get("steer", {})
+  return Steer(chooser=ScriptedChooser(env, expert), dims=tuple(int(d) for d in dims),
+               alpha=float(c.get("alpha", 2.0)), num_proposals=int(s.get("num_proposals", 32)),
+               num_choices=int(s.get("num_choices", 5)), every=int(s.get("every", 1)))

@@ -19,7 +19,6 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from soe_jax import buffer as buffer_lib
 from soe_jax import checkpoint, loop
 from soe_jax.data import hdf5
 from soe_jax.envs import manipulation
@@ -41,15 +40,12 @@ class SteeringSession:
   def __init__(self, workdir: str, round_: int | None = None, seed: int = 0, image_size: int = IMAGE_SIZE):
     self.workdir = os.path.abspath(workdir)
     self.config = loop.load_config(self.workdir)
-    last = max([0] + [int(d) for d in os.listdir(os.path.join(self.workdir, "rounds"))
-                      if os.path.exists(os.path.join(self.workdir, "rounds", d, "ckpt"))]
-               if os.path.isdir(os.path.join(self.workdir, "rounds")) else [0])
-    self.round = last if round_ is None else int(round_)
+    self.round = loop.last_round(self.config, self.workdir) if round_ is None else int(round_)
     loaded = checkpoint.load(loop.checkpoint_dir(self.config, self.workdir, self.round))
     self.policy, self.agent = loaded.policy, strategies.Agent.from_state(loaded.state)
     env_config = self.config.env.copy_and_resolve_references()
     env_config.backend = "mujoco"
-    self.env = loop._env(env_config.to_json())
+    self.env = loop.task_env(env_config.to_json())
     self.lock = threading.Lock()
     self._step = jax.jit(jax.vmap(self.env.step))
     self._reset = jax.jit(jax.vmap(self.env.reset))
@@ -57,11 +53,9 @@ class SteeringSession:
     self._candidates = jax.jit(lambda agent, hist, key, dim: strategies.steering_candidates(
         self.policy, agent, hist, key, (dim,), float(self.config.explore.alpha), int(steer.num_proposals),
         int(steer.num_choices)), static_argnums=3)
-    demos, _ = hdf5.read_episodes(os.path.join(loop.round0_dir(self.config, self.workdir), "demos.hdf5"))
+    demos, _ = hdf5.read_episodes(loop.demonstrations_path(self.config, self.workdir))
     buf = loop.build_buffer(self.config, self.policy, [(demos, 0)])
-    windows = buffer_lib.sample_windows(buf, jax.random.PRNGKey(0), int(steer.snr_windows), self.policy.horizon,
-                                        self.policy.n_obs_steps, self.policy.n_action_steps)
-    self.snr = np.asarray(steering.latent_snr(self.policy, self.agent, windows["obs"]))
+    self.snr = np.asarray(steering.buffer_snr(self.policy, self.agent, buf, jax.random.PRNGKey(0), int(steer.snr_windows)))
     self.dims = steering.steering_dims(jnp.asarray(self.snr), float(steer.threshold_db)) or (int(np.argmax(self.snr)),)
     self.image_size = image_size
     self.renderer = None  # made on first use, on the thread that renders
