@@ -33,6 +33,12 @@ RELEASE_DISTANCE = math.atanh(0.4) / 10.0  # ~0.0424 m
 OBJECT_QPOS = 9
 
 
+def over_target(pos: jax.Array) -> jax.Array:
+  """The can's centre is within the x, y bounds of its target compartment."""
+  (x0, x1), (y0, y1) = TARGET_BOX
+  return (pos[0] > x0) & (pos[0] < x1) & (pos[1] > y0) & (pos[1] < y1)
+
+
 def _bin_mjcf(name: str, center, dividers: bool) -> str:
   x, y, z = center
   geoms = [("floor", (0.2, 0.25, 0.02), (0, 0, 0)),
@@ -83,7 +89,6 @@ class Can(manipulation.ManipulationEnv):
 
   def _success(self, qpos, eef_pos):
     pos = qpos[OBJECT_QPOS:OBJECT_QPOS + 3]
-    (x0, x1), (y0, y1) = TARGET_BOX
-    inside = (pos[0] > x0) & (pos[0] < x1) & (pos[1] > y0) & (pos[1] < y1) & (pos[2] > 0.8) & (pos[2] < 0.9)
+    inside = over_target(pos) & (pos[2] > 0.8) & (pos[2] < 0.9)
     released = jnp.linalg.norm(eef_pos - pos) > RELEASE_DISTANCE
     return inside & released

@@ -25,6 +25,7 @@ SQUARE_PEG = (0.23, 0.10)
 ROUND_PEG = (0.23, -0.10)
 PEG_HALF_HEIGHT = 0.1
 HANDLE_OFFSET = 0.054  # handle site along the nut's local x
+HANDLE_HALF_WIDTH = 0.015875  # the handle bar's half-extent across the nut's local x
 RELEASE_DISTANCE = math.atanh(0.4) / 10.0
 OBJECT_QPOS = 9
 
@@ -40,7 +41,7 @@ class Square(manipulation.ManipulationEnv):
   def _scene_mjcf(self) -> str:
     bars = [((0.0105, 0.04375, 0.01), (0.03325, 0, 0)), ((0.0105, 0.04375, 0.01), (-0.03325, 0, 0)),
             ((0.03125, 0.0105, 0.01), (0, 0.03325, 0)), ((0.03125, 0.0105, 0.01), (0, -0.03325, 0)),
-            ((0.02525, 0.015875, 0.01), (HANDLE_OFFSET, 0, 0))]
+            ((0.02525, HANDLE_HALF_WIDTH, 0.01), (HANDLE_OFFSET, 0, 0))]
     nut = "\n".join(
         f'<geom type="box" size="{manipulation.np_fmt(s)}" pos="{manipulation.np_fmt(p)}" density="100" condim="4" '
         f'friction="0.95 0.3 0.1" solimp="0.998 0.998 0.001" {panda.OBJECT_COLLISION} rgba="0.6 0.5 0.2 1"/>'

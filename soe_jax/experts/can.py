@@ -72,9 +72,7 @@ def resume(obs):
   holding = script.gripping(obs, can.at[2].add(0.016), can_task.CAN_RADIUS)
   over_place = script.near_xy(eef, jnp.asarray(PLACE_XY), 0.03)
   carried = jnp.where(over_place, 6, jnp.where(eef[2] > CARRY_Z - 0.03, 5, 4))
-  (x0, x1), (y0, y1) = can_task.TARGET_BOX
-  placed = (can[0] > x0) & (can[0] < x1) & (can[1] > y0) & (can[1] < y1)
-  free = jnp.where(placed, 8, jnp.where(script.near_xy(eef, can, 0.012), 2, 1))
+  free = jnp.where(can_task.over_target(can), 8, jnp.where(script.near_xy(eef, can, 0.012), 2, 1))
   return jnp.where(holding, carried, free)
 
 

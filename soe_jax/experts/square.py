@@ -95,9 +95,6 @@ def retreat(obs, p, cmd_pos, cmd_yaw):
   return target(cmd_pos.at[2].set(CARRY_Z), cmd_yaw, -1.0, p["speed"], hold=40)
 
 
-HANDLE_HALF_WIDTH = 0.015875
-
-
 def resume(obs):
   """Holding the nut: over the peg, release it when it is down, insert it once aligned just above the
   peg's top, else align; away from the peg, carry it at carrying height or lift it there. Not holding it:
@@ -106,7 +103,7 @@ def resume(obs):
   handle, _ = _handle(obs, {"along": jnp.array(0.008)})
   nut, _ = _nut(obs)
   peg = jnp.asarray(square_task.SQUARE_PEG)
-  holding = script.gripping(obs, handle, HANDLE_HALF_WIDTH, z_tol=0.025)
+  holding = script.gripping(obs, handle, square_task.HANDLE_HALF_WIDTH, z_tol=0.025)
   on_peg = script.near_xy(nut, peg, 0.03) & (nut[2] < square_task.TABLE_TOP + 0.05)
   aligned = script.near_xy(nut, peg, 0.004) & (nut[2] < PEG_TOP + 0.03)
   at_peg = jnp.where(on_peg, 8, jnp.where(aligned, 7, 6))
