@@ -1,8 +1,19 @@
 """Shared config pieces and the preset parser for `configs/<task>.py[:PRESETS]`.
 
+`python -m soe_jax.main --config=configs/TASK.py:cpu,soe` runs round 0 (scripted demonstrations, the
+round-0 fit with the VIB bypass, evaluation on 100 fixed start states) and one round of exploration
+(100 start states x 5 tries) -> keep each state's first success -> re-fit -> evaluate, leaving
+metrics.jsonl, report.md and plots in runs/TASK-METHOD-<time>/. Round 0 is shared by every method run
+beside it.
+
 Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
-`configs/square.py:head=flow_unet,smoke`. Single fields are overridden on the command line with
-`--config.fit.lr=3e-4`.
+`configs/square.py:head=flow_unet,smoke`:
+- `smoke`: tiny networks, two short rounds, seconds once compiled (for tests);
+- `cpu`: the small UNet 64/128/256, 1.5k + 1k steps, one round;
+- none: paper scale (Diffusion Policy's low-dim UNet, 25k steps of AdamW 3e-4 at batch 256, DDIM-10,
+  3 rounds), for accelerators;
+- the method: `dp`, `sime`, `soe` or `soe_steer`; and `head=NAME` (diffusion_unet, flow_unet, mlp).
+Single fields are overridden on the command line with `--config.fit.lr=3e-4`.
 """
 
 from __future__ import annotations

@@ -2,18 +2,15 @@
 
   python -m soe_jax.main --config=configs/lift.py:cpu,soe
 
-runs round 0 (scripted demonstrations, the round-0 fit with the VIB bypass, evaluation on 100 fixed
-start states) and one round of SOE exploration (100 start states x 5 tries) -> keep each state's first
-success -> re-fit -> evaluate, leaving metrics.jsonl, report.md and plots in runs/lift-soe-<time>/.
-Swap `soe` for `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
+runs round 0 and one round of SOE exploration, re-fit and evaluation (configs/common.py says what
+each preset does), leaving metrics.jsonl, report.md and plots in runs/lift-soe-<time>/. Swap `soe` for
+`dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
 
 Demonstrations: 10, robomimic's core_10 for Lift. Base success measured with the `cpu` preset (seed
 0): 13% of 100 evaluation episodes [7.8%, 21.0%], a little below the 20-80% band the experiment
 wants; more demonstrations (`--config.data.num_demos`) raise it.
 
-Presets: `smoke` (tiny networks, seconds), `cpu` (small UNet 64/128/256, 1.5k + 1k steps, one round),
-default: paper scale (Diffusion Policy's low-dim UNet, 25k steps of AdamW 3e-4 at batch 256, DDIM-10,
-3 rounds), for accelerators. Also `head=NAME` (diffusion_unet, flow_unet, mlp). Benchmarks:
+Benchmarks:
   python -m soe_jax.bench fit --config=configs/lift.py:cpu
   python -m soe_jax.bench rollout --config=configs/lift.py:cpu --strategy=soe --num_envs=100
 """

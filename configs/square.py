@@ -2,19 +2,16 @@
 
   python -m soe_jax.main --config=configs/square.py:cpu,soe
 
-runs round 0 (scripted demonstrations, the round-0 fit with the VIB bypass, evaluation on 100 fixed
-start states) and one round of SOE exploration (100 start states x 5 tries) -> keep each state's first
-success -> re-fit -> evaluate, leaving metrics.jsonl, report.md and plots in runs/square-soe-<time>/.
-Swap `soe` for `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
+runs round 0 and one round of SOE exploration, re-fit and evaluation (configs/common.py says what
+each preset does), leaving metrics.jsonl, report.md and plots in runs/square-soe-<time>/. Swap `soe` for
+`dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
 
 Demonstrations: 20, robomimic's core_20 as SIME uses it. Base success measured with the `cpu` preset
 (seed 0): 2% of 100 evaluation episodes [0.6%, 7.0%], far below the 20-80% band the experiment wants: the
 small UNet after 1.5k steps does not learn this task from 20 demonstrations; the default (paper-scale)
 settings have not been measured on this CPU.
 
-Presets: `smoke` (tiny networks, seconds), `cpu` (small UNet 64/128/256, 1.5k + 1k steps, one round),
-default: paper scale (Diffusion Policy's low-dim UNet, 25k steps of AdamW 3e-4 at batch 256, DDIM-10,
-3 rounds), for accelerators. Also `head=NAME` (diffusion_unet, flow_unet, mlp). Benchmarks:
+Benchmarks:
   python -m soe_jax.bench fit --config=configs/square.py:cpu --bypass=on
   python -m soe_jax.bench sample --config=configs/square.py --batch=1 --steps=10
 """
