@@ -15,14 +15,12 @@ Output (numpy, in the buffer's format): `obs` (N, H, D) raw policy observations 
 `actions` (N, H, A), `eef_pos` (N, H + 1, 3) measured end-effector positions from the start,
 `qpos` (N, H, nq) simulator joint positions before each action, `length` (N,) actions up to and
 including the successful step (H if none), `success` (N,), `aux` {name: (N, ceil(H / Ta), ...)} the
-strategy's diagnostics per decision (zeros after the whole slice ended), and `seconds` (wall time
-including compilation).
+strategy's diagnostics per decision (zeros after the whole slice ended).
 """
 
 from __future__ import annotations
 
 import functools
-import time
 
 import jax
 import jax.numpy as jnp
@@ -112,7 +110,6 @@ def rollout(env: manipulation.ManipulationEnv, policy: Policy, agent: Agent, str
   size = min(slice_size or n, n)
   num_slices = -(-n // size)
   padded = jnp.concatenate([reset_keys, jnp.repeat(reset_keys[-1:], num_slices * size - n, axis=0)])
-  start = time.perf_counter()
   bar = tqdm.tqdm(total=num_slices * size * env.horizon, desc=desc, unit="env-step", unit_scale=True,
                   disable=not progress, leave=False)
   parts = [_run_slice(env, policy, agent, strategy, padded[s * size:(s + 1) * size], jax.random.fold_in(key, s),
@@ -120,5 +117,4 @@ def rollout(env: manipulation.ManipulationEnv, policy: Policy, agent: Agent, str
   bar.close()
   out = {k: np.concatenate([p[k] for p in parts], 0)[:n] for k in parts[0] if k != "aux"}
   out["aux"] = {k: np.concatenate([p["aux"][k] for p in parts], 0)[:n] for k in parts[0]["aux"]}
-  out["seconds"] = time.perf_counter() - start
   return out
