@@ -57,6 +57,10 @@ def _summarize(workdir: str) -> tuple[dict, dict]:
              episodes_per_round=[phases[(r, "evaluate")]["num_rollouts"] for r in rounds],
              pass_at_k_per_round=[phases.get((r, "explore"), {}).get("pass_at_k") for r in rounds],
              rollouts_per_round=[phases.get((r, "explore"), {}).get("rollouts") for r in rounds])
+  walls = [sum(phases.get((r, p), {}).get("time_total_s", 0) for p in ("explore", "fit", "evaluate"))
+            for r in rounds if r > 0]
+  if walls:
+    out["round_wall_s"] = float(np.mean(walls))  # one round of explore, re-fit, evaluate
   if first is not None:
     out.update(pass_at_k=first["pass_at_k"], k=first["k"], jerk=first["jerk"], rollouts=first["rollouts"],
                rollouts_mean=first["rollouts_mean"])
@@ -155,13 +159,14 @@ def _mean_std(xs) -> str:
 
 def aggregate(workdirs: list[str]) -> tuple[str, str]:
   """(markdown, csv): one row per task and method, mean ± std over seeds; success rates also with the
-  95% Wilson interval of all their episodes pooled, and the episode count."""
+  95% Wilson interval of all their episodes pooled, and the episode count; the wall time of a round
+  (explore, re-fit, evaluate) in seconds."""
   groups: dict[tuple, list[dict]] = {}
   for w in workdirs:
     s = summarize(w)
     groups.setdefault((s["task"], s["method"]), []).append(s)
   header = ["task", "method", "seeds", "pass_at_k", "jerk", "rollouts", "sr_before", "sr_after", "sr_after_episodes",
-            "sr_after_wilson", "improvement_abs", "improvement_rel"]
+            "sr_after_wilson", "improvement_abs", "improvement_rel", "round_wall_s"]
   rows = []
   for (task, method), runs in sorted(groups.items()):
     after = [r for r in runs if "sr_after" in r]
@@ -174,7 +179,8 @@ def aggregate(workdirs: list[str]) -> tuple[str, str]:
                      sr_before=_mean_std([r.get("sr_before") for r in runs]), sr_after=_mean_std([r.get("sr_after") for r in runs]),
                      sr_after_episodes=n, sr_after_wilson=f"[{lo:.3f}, {hi:.3f}]",
                      improvement_abs=_mean_std([r.get("improvement_abs") for r in runs]),
-                     improvement_rel=_mean_std([r.get("improvement_rel") for r in runs])))
+                     improvement_rel=_mean_std([r.get("improvement_rel") for r in runs]),
+                     round_wall_s=_mean_std([r.get("round_wall_s") for r in runs])))
   md = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
   md += ["| " + " | ".join(str(r[h]) for h in header) + " |" for r in rows]
   buf = io.StringIO()
