@@ -7,8 +7,7 @@ each preset does), leaving metrics.jsonl, report.md and plots in runs/lift-soe-<
 `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
 
 Demonstrations: 10, robomimic's core_10 for Lift. Base success measured with the `cpu` preset (seed
-0): 13% of 100 evaluation episodes [7.8%, 21.0%], a little below the 20-80% band the experiment
-wants; more demonstrations (`--config.data.num_demos`) raise it.
+0): 58% of 100 evaluation episodes [48.2%, 67.2%] (round-0 fit 695 s, evaluation 49 s).
 
 Benchmarks:
   python -m soe_jax.bench fit --config=configs/lift.py:cpu

@@ -7,6 +7,7 @@ import os
 import numpy as np
 import pytest
 
+from configs import can as can_config
 from configs import lift as lift_config
 from soe_jax import loop, report, runlog
 
@@ -99,6 +100,12 @@ def test_method_presets_choose_the_strategy():
     lift_config.get_config("soe,dp")
   with pytest.raises(ValueError, match="known presets: smoke, cpu, head, dp, sime, soe, soe_steer"):
     lift_config.get_config("fast")
+
+
+def test_the_cpu_preset_takes_the_tasks_own_number_of_demonstrations():
+  assert lift_config.get_config("cpu").data.num_demos == lift_config.get_config("").data.num_demos == 10
+  assert (can_config.get_config("").data.num_demos, can_config.get_config("cpu").data.num_demos) == (20, 100)
+  assert can_config.get_config("cpu,smoke").data.num_demos == 4  # smoke stays tiny
 
 
 def test_unknown_names_are_refused_before_any_work(tmp_path):
