@@ -9,8 +9,9 @@ beside it.
 Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
 `configs/square.py:head=flow_unet,smoke`:
 - `smoke`: tiny networks, two short rounds, seconds once compiled (for tests);
-- `cpu`: the small UNet 64/128/256, 5k + 3k steps at batch 64 (about 11 + 7 minutes here), one round, and the task's own number of
-  demonstrations (its config says which and the base success measured with it);
+- `cpu`: the small UNet 64/128/256, 5k + 3k steps at batch 64 (fits of about 11 + 6 minutes here),
+  one round, and the task's own number of demonstrations (its config says which and the base success
+  measured with it);
 - none: paper scale (Diffusion Policy's low-dim UNet, 25k steps of AdamW 3e-4 at batch 256, DDIM-10,
   3 rounds), for accelerators;
 - the method: `dp`, `sime`, `soe` or `soe_steer`; and `head=NAME` (diffusion_unet, flow_unet, mlp).
