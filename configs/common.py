@@ -10,8 +10,8 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
 `configs/square.py:head=flow_unet,smoke`:
 - `smoke`: tiny networks, two short rounds, seconds once compiled (for tests);
 - `cpu`: the small UNet 64/128/256, 5k + 3k steps at batch 64 (fits of about 11 + 6 minutes here),
-  one round, and the task's own number of demonstrations (its config says which and the base success
-  measured with it);
+  one round, and the task's own number of demonstrations and round-0 steps where it needs others
+  (its config says which and the base success measured with them);
 - none: paper scale (Diffusion Policy's low-dim UNet, 25k steps of AdamW 3e-4 at batch 256, DDIM-10,
   3 rounds), for accelerators;
 - the method: `dp`, `sime`, `soe` or `soe_steer`; and `head=NAME` (diffusion_unet, flow_unet, mlp).
@@ -73,9 +73,11 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   return c
 
 
-def apply_presets(c: ml_collections.ConfigDict, arg: str | None, cpu_demos: int | None = None) -> ml_collections.ConfigDict:
-  """`cpu_demos`: the task's number of demonstrations under the `cpu` preset (its small UNet and short
-  fit need more than the paper's few to reach the 20-80% base success the experiment wants)."""
+def apply_presets(c: ml_collections.ConfigDict, arg: str | None, cpu_demos: int | None = None,
+                  cpu_steps: int = 5000) -> ml_collections.ConfigDict:
+  """`cpu_demos`, `cpu_steps`: the task's number of demonstrations and round-0 fit steps under the `cpu`
+  preset (a task may need more than the paper's few demonstrations, or a longer fit, for its small UNet
+  to reach the 20-80% base success the experiment wants)."""
   presets = parse_arg(arg)
   methods = [m for m in METHODS if presets.get(m)]
   if len(methods) > 1:
@@ -88,7 +90,7 @@ def apply_presets(c: ml_collections.ConfigDict, arg: str | None, cpu_demos: int 
     head_kwargs.update(down_dims=(64, 128, 256), step_embed_dim=128)
     # Batch 64 rather than 256: on this CPU a step costs ~4x less, and 5k small steps fit the few
     # demonstrations far better than 1.5k large ones in the same time (BENCHMARKS.md).
-    c.fit.update(num_steps=5000, batch_size=64, warmup_steps=250, chunk_size=250)
+    c.fit.update(num_steps=cpu_steps, batch_size=64, warmup_steps=250, chunk_size=250)
     c.data.num_demos = cpu_demos or c.data.num_demos
     c.rounds.update(num_rounds=1, refit_steps=3000)
     c.explore.steer.update(num_proposals=16, every=2, max_dims=4)

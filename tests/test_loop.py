@@ -102,9 +102,10 @@ def test_method_presets_choose_the_strategy():
     lift_config.get_config("fast")
 
 
-def test_the_cpu_preset_takes_the_tasks_own_number_of_demonstrations():
+def test_the_cpu_preset_takes_the_tasks_own_demonstrations_and_steps():
   assert lift_config.get_config("cpu").data.num_demos == lift_config.get_config("").data.num_demos == 10
   assert (can_config.get_config("").data.num_demos, can_config.get_config("cpu").data.num_demos) == (20, 100)
+  assert (lift_config.get_config("cpu").fit.num_steps, can_config.get_config("cpu").fit.num_steps) == (5000, 10_000)
   assert can_config.get_config("cpu,smoke").data.num_demos == 4  # smoke stays tiny
 
 
