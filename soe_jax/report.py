@@ -35,6 +35,11 @@ def _sr(m: dict | None) -> str:
   return f"{_pct(m['success_rate'])} [{_pct(m['wilson_low'])}, {_pct(m['wilson_high'])}] (n={m['num_rollouts']})"
 
 
+def _round_wall_s(phases: dict, r: int) -> float:
+  """Wall time of round `r`: its explore, fit and evaluate phases."""
+  return sum(phases.get((r, p), {}).get("time_total_s", 0) for p in ("explore", "fit", "evaluate"))
+
+
 def summarize(workdir: str) -> dict:
   """The run's numbers: method, task, seed, and the table row."""
   return _summarize(workdir)[0]
@@ -57,8 +62,7 @@ def _summarize(workdir: str) -> tuple[dict, dict]:
              episodes_per_round=[phases[(r, "evaluate")]["num_rollouts"] for r in rounds],
              pass_at_k_per_round=[phases.get((r, "explore"), {}).get("pass_at_k") for r in rounds],
              rollouts_per_round=[phases.get((r, "explore"), {}).get("rollouts") for r in rounds])
-  walls = [sum(phases.get((r, p), {}).get("time_total_s", 0) for p in ("explore", "fit", "evaluate"))
-            for r in rounds if r > 0]
+  walls = [_round_wall_s(phases, r) for r in rounds if r > 0]
   if walls:
     out["round_wall_s"] = float(np.mean(walls))  # one round of explore, re-fit, evaluate
   if first is not None:
@@ -96,11 +100,10 @@ def write(workdir: str) -> dict:
         "|---|---|---|---|---|---|---|---|"]
   for r in s["rounds"]:
     ex, fi, ev = phases.get((r, "explore"), {}), phases.get((r, "fit"), {}), phases.get((r, "evaluate"), {})
-    wall = sum(p.get("time_total_s", 0) for p in (ex, fi, ev))
     jerk = f"{ex['jerk']:.1f}" if ex else "-"
     loss = f"{fi['final_loss']:.4f}" if fi else "-"
     md.append(f"| {r} | {_sr(ev)} | {_pct(ex.get('pass_at_k'))} | {ex.get('rollouts', '-')} | {jerk} "
-              f"| {ex.get('num_episodes', '-')} | {loss} | {wall:.0f} |")
+              f"| {ex.get('num_episodes', '-')} | {loss} | {_round_wall_s(phases, r):.0f} |")
   md += ["", "![success over rounds](success.png)", "", "![exploration over rounds](exploration.png)", ""]
   with open(os.path.join(workdir, "report.md"), "w") as f:
     f.write("\n".join(md))
