@@ -13,7 +13,8 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
   one round, and the task's own number of demonstrations and round-0 steps where it needs others
   (its config says which and the base success measured with them);
 - none: paper scale (Diffusion Policy's low-dim UNet, 25k steps of AdamW 3e-4 at batch 256, DDIM-10,
-  3 rounds), for accelerators;
+  3 rounds), for accelerators (there with `--config.env.backend=mujoco`: MJX compiles and steps
+  these contact-rich scenes slowly even on an H100; BENCHMARKS.md);
 - the method: `dp`, `sime`, `soe` or `soe_steer`; and `head=NAME` (diffusion_unet, flow_unet, mlp).
 Single fields are overridden on the command line with `--config.fit.lr=3e-4`.
 """

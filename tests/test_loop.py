@@ -9,6 +9,7 @@ import pytest
 
 from configs import can as can_config
 from configs import lift as lift_config
+from configs import square as square_config
 from soe_jax import loop, report, runlog
 
 TIMING = ("time_compile_s", "time_fit_s", "time_explore_s", "time_evaluate_s", "time_total_s")
@@ -105,7 +106,9 @@ def test_method_presets_choose_the_strategy():
 def test_the_cpu_preset_takes_the_tasks_own_demonstrations_and_steps():
   assert lift_config.get_config("cpu").data.num_demos == lift_config.get_config("").data.num_demos == 10
   assert (can_config.get_config("").data.num_demos, can_config.get_config("cpu").data.num_demos) == (20, 100)
-  assert (lift_config.get_config("cpu").fit.num_steps, can_config.get_config("cpu").fit.num_steps) == (5000, 10_000)
+  steps = [config.get_config("cpu").fit.num_steps for config in (lift_config, can_config, square_config)]
+  assert steps == [5000, 10_000, 10_000]
+  assert square_config.get_config("cpu").data.num_demos == 20
   assert can_config.get_config("cpu,smoke").data.num_demos == 4  # smoke stays tiny
 
 
