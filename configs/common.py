@@ -67,10 +67,11 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
       steer=dict(num_proposals=32, num_choices=5, every=1, threshold_db=0.0, max_dims=0, snr_windows=2048)))
   c.eval = ml_collections.ConfigDict(dict(num_start_states=100, seed=77_777))
   # Rounds after round 0: select episodes (first_success | all_successes | sime), append, re-fit
-  # (continue from the previous round's parameters, or scratch), evaluate.
+  # (continue from the previous round's parameters for refit_steps at a peak lr of refit_lr, 0 meaning
+  # fit.lr; or scratch), evaluate.
   # round0_dir: where the shared round 0 lives ("" = <workdir>/../round0).
   c.rounds = ml_collections.ConfigDict(dict(num_rounds=3, select="first_success", refit="continue",
-                                            refit_steps=10_000, round0_dir=""))
+                                            refit_steps=10_000, refit_lr=0.0, round0_dir=""))
   return c
 
 

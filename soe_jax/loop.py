@@ -250,11 +250,11 @@ class Experiment:
     self.timer = runlog.CompileTimer()
     self._optimizers = {}
 
-  def optimizer(self, steps: int):
-    """One optimiser object per schedule length, so later rounds reuse the compiled fit chunks."""
-    if steps not in self._optimizers:
-      self._optimizers[steps] = train_state.make_optimizer(self.config.fit, steps)
-    return self._optimizers[steps]
+  def optimizer(self, steps: int, lr: float):
+    """One optimiser object per schedule, so later rounds reuse the compiled fit chunks."""
+    if (steps, lr) not in self._optimizers:
+      self._optimizers[steps, lr] = train_state.make_optimizer(self.config.fit, steps, lr)
+    return self._optimizers[steps, lr]
 
   def key(self, r: int, stream: int):
     return jax.random.fold_in(jax.random.fold_in(self.root, r), stream)
@@ -295,10 +295,14 @@ class Experiment:
     return rec, rollout_episodes(out, keep)
 
   def fit(self, buf, norm, r: int, init_state=None):
-    """Round 0 / scratch: fresh parameters and `fit.num_steps`; continue: from `init_state`."""
+    """Round 0 / scratch: fresh parameters, `fit.num_steps` at `fit.lr`; continue: from `init_state`,
+    `rounds.refit_steps` at `rounds.refit_lr` (0: `fit.lr`)."""
     c = self.config
-    steps = int(c.fit.num_steps) if init_state is None else int(c.rounds.refit_steps)
-    tx = self.optimizer(steps)
+    if init_state is None:
+      steps, lr = int(c.fit.num_steps), float(c.fit.lr)
+    else:
+      steps, lr = int(c.rounds.refit_steps), float(c.rounds.refit_lr or c.fit.lr)
+    tx = self.optimizer(steps, lr)
     if init_state is None:
       params = self.policy.init(jax.random.fold_in(self.key(r, _FIT), 0))
     else:

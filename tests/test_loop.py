@@ -4,6 +4,7 @@ interruption, the shared round 0, re-scoring a checkpoint, and a refused config.
 import json
 import os
 
+import jax
 import numpy as np
 import pytest
 
@@ -64,6 +65,22 @@ def test_an_interrupted_run_resumes_to_the_same_numbers(smoke_run, monkeypatch):
   assert _numbers(other) == _numbers(workdir)
   ev = json.load(open(os.path.join(other, "rounds", "2", "evaluate.json")))
   np.testing.assert_array_equal(ev["success"], json.load(open(os.path.join(workdir, "rounds", "2", "evaluate.json")))["success"])
+
+
+def test_a_continued_refit_runs_at_its_own_learning_rate(smoke_run):
+  root, config, workdir, _ = smoke_run
+  from soe_jax import checkpoint
+  still = lift_config.get_config("smoke,soe")
+  still.rounds.update(num_rounds=1, refit_lr=1e-30)  # reuses the fixture's round 0
+  other = str(root / "lift-soe-still")
+  loop.run(still, other, progress=False)
+  params = [checkpoint.load(os.path.join(d, "ckpt")).state.params
+            for d in (loop.round0_dir(config, workdir), os.path.join(other, "rounds", "1"),
+                      os.path.join(workdir, "rounds", "1"))]
+  for a, b in zip(jax.tree.leaves(params[0]), jax.tree.leaves(params[1])):
+    np.testing.assert_allclose(a, b, atol=1e-12)  # a peak of 1e-30 leaves the round-0 parameters
+  moved = [float(np.abs(a - b).max()) for a, b in zip(jax.tree.leaves(params[0]), jax.tree.leaves(params[2]))]
+  assert max(moved) > 1e-4  # at fit.lr the same re-fit moves them
 
 
 def test_a_different_config_is_refused_naming_the_fields(smoke_run):
