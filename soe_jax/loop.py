@@ -50,20 +50,10 @@ _NOT_ROUND0 = ("explore", "rounds")
 
 
 # -- config bookkeeping --------------------------------------------------------------------------
-def _flatten(d: dict, prefix: str = "") -> dict:
-  out = {}
-  for k, v in d.items():
-    key = f"{prefix}{k}"
-    if isinstance(v, dict):
-      out.update(_flatten(v, key + "."))
-    else:
-      out[key] = list(v) if isinstance(v, tuple) else v
-  return out
-
 
 def config_diff(saved: dict, current: dict) -> list[str]:
   """Fields whose values differ, as 'a.b: saved -> current'."""
-  a, b = _flatten(saved), _flatten(current)
+  a, b = runlog.flatten(saved), runlog.flatten(current)
   return [f"{k}: {a.get(k, '<missing>')!r} -> {b.get(k, '<missing>')!r}" for k in sorted(set(a) | set(b))
           if a.get(k, "<missing>") != b.get(k, "<missing>")]
 

@@ -14,6 +14,7 @@ import json
 import os
 
 import numpy as np
+from absl import logging
 
 from soe_jax import metrics, runlog
 
@@ -160,23 +161,53 @@ def _mean_std(xs) -> str:
   return f"{np.mean(xs):.3g} ± {np.std(xs):.2g}" if len(xs) > 1 else f"{xs[0]:.3g}"
 
 
+_NOT_SETTINGS = ("seed", "rounds.round0_dir")
+
+
+def _settings(workdir: str) -> dict:
+  """The run's saved config, flattened, without what seeds and places it."""
+  with open(os.path.join(workdir, "config.json")) as f:
+    return {k: v for k, v in runlog.flatten(json.load(f)).items() if k not in _NOT_SETTINGS}
+
+
+def _variants(settings: list[dict]) -> list[str]:
+  """For runs of one task and method: each one's values of the fields on which they differ ('' if none)."""
+  keys = sorted({k for s in settings for k in s if any(t.get(k) != s.get(k) for t in settings)})
+  return [", ".join(f"{k}={s.get(k)}" for k in keys) for s in settings]
+
+
 def aggregate(workdirs: list[str]) -> tuple[str, str]:
-  """(markdown, csv): one row per task and method, mean ± std over seeds; success rates also with the
-  95% Wilson interval of all their episodes pooled, and the episode count; the wall time of a round
-  (explore, re-fit, evaluate) in seconds."""
+  """(markdown, csv): one row per task, method and variant (runs whose configs differ in more than the
+  seed get a row each, named by the fields that differ), mean ± std over seeds; success rates also with
+  the 95% Wilson interval of all their episodes pooled, and the episode count; the wall time of a
+  round (explore, re-fit, evaluate) in seconds. Of two runs with the same config and seed, the first
+  counts."""
+  summaries = [summarize(w) for w in workdirs]
+  settings = [_settings(w) for w in workdirs]
+  variant = [""] * len(workdirs)
+  by_method: dict[tuple, list[int]] = {}
+  for i, s in enumerate(summaries):
+    by_method.setdefault((s["task"], s["method"]), []).append(i)
+  for idx in by_method.values():
+    for i, v in zip(idx, _variants([settings[i] for i in idx])):
+      variant[i] = v
   groups: dict[tuple, list[dict]] = {}
-  for w in workdirs:
-    s = summarize(w)
-    groups.setdefault((s["task"], s["method"]), []).append(s)
-  header = ["task", "method", "seeds", "pass_at_k", "jerk", "rollouts", "sr_before", "sr_after", "sr_after_episodes",
+  for s, v in zip(summaries, variant):
+    runs = groups.setdefault((s["task"], s["method"], v), [])
+    if s["seed"] in [r["seed"] for r in runs]:
+      logging.warning("%s repeats seed %s of %s with the same config; left out of the table", s["workdir"], s["seed"],
+                      runs[0]["workdir"])
+      continue
+    runs.append(s)
+  header = ["task", "method", "variant", "seeds", "pass_at_k", "jerk", "rollouts", "sr_before", "sr_after", "sr_after_episodes",
             "sr_after_wilson", "improvement_abs", "improvement_rel", "round_wall_s"]
   rows = []
-  for (task, method), runs in sorted(groups.items()):
+  for (task, method, v), runs in sorted(groups.items()):
     after = [r for r in runs if "sr_after" in r]
     n = sum(r["sr_episodes"] for r in after)
     successes = sum(int(round(r["sr_after"] * r["sr_episodes"])) for r in after)
     lo, hi = metrics.wilson_interval(successes, n)
-    rows.append(dict(task=task, method=method, seeds=len(runs),
+    rows.append(dict(task=task, method=method, variant=v, seeds=len(runs),
                      pass_at_k=_mean_std([r.get("pass_at_k") for r in runs]), jerk=_mean_std([r.get("jerk") for r in runs]),
                      rollouts=_mean_std([r.get("rollouts") for r in runs]),
                      sr_before=_mean_std([r.get("sr_before") for r in runs]), sr_after=_mean_std([r.get("sr_after") for r in runs]),

@@ -37,6 +37,18 @@ class CompileTimer:
     jax.monitoring.unregister_event_duration_listener(self._listen)
 
 
+def flatten(d: dict, prefix: str = "") -> dict:
+  """A saved config as {'a.b': value}."""
+  out = {}
+  for k, v in d.items():
+    key = f"{prefix}{k}"
+    if isinstance(v, dict):
+      out.update(flatten(v, key + "."))
+    else:
+      out[key] = list(v) if isinstance(v, tuple) else v
+  return out
+
+
 def read_metrics(workdir: str) -> list[dict]:
   path = os.path.join(workdir, "metrics.jsonl")
   if not os.path.exists(path):

@@ -3,6 +3,7 @@ interruption, the shared round 0, re-scoring a checkpoint, and a refused config.
 
 import json
 import os
+import shutil
 
 import jax
 import numpy as np
@@ -92,13 +93,24 @@ def test_a_different_config_is_refused_naming_the_fields(smoke_run):
     loop.run(changed, workdir, progress=False)
 
 
-def test_aggregate_table_over_runs(smoke_run):
+def test_aggregate_table_over_runs(smoke_run, tmp_path):
   root, _, workdir, _ = smoke_run
   md, csv_text = report.aggregate([workdir])
-  assert "| lift | soe | 1 |" in md
+  assert "| lift | soe |  | 1 |" in md
   header, row = csv_text.splitlines()[:2]
-  assert header.startswith("task,method,seeds,pass_at_k") and header.endswith(",round_wall_s")
+  assert header.startswith("task,method,variant,seeds,pass_at_k") and header.endswith(",round_wall_s")
   assert float(row.split(",")[-1]) > 0  # the smoke run's rounds took time
+  # A run with other settings gets its own row, named by what differs; a repeat of a seed is left out.
+  copies = []
+  for name, alpha in (("alpha3", 3.0), ("alpha3-again", 3.0)):
+    copy = tmp_path / name
+    shutil.copytree(workdir, copy, ignore=shutil.ignore_patterns("rounds", "data", "tb"))
+    saved = json.loads((copy / "config.json").read_text())
+    saved["explore"]["alpha"] = alpha
+    (copy / "config.json").write_text(json.dumps(saved))
+    copies.append(str(copy))
+  md, _ = report.aggregate([workdir] + copies)
+  assert "| lift | soe | explore.alpha=2.0 | 1 |" in md and "| lift | soe | explore.alpha=3.0 | 1 |" in md
 
 
 def test_a_saved_checkpoint_rescored_gives_the_same_success(smoke_run):
