@@ -290,13 +290,11 @@ class Experiment:
     c = self.config
     if init_state is None:
       steps, lr = int(c.fit.num_steps), float(c.fit.lr)
-    else:
-      steps, lr = int(c.rounds.refit_steps), float(c.rounds.refit_lr or c.fit.lr)
-    tx = self.optimizer(steps, lr)
-    if init_state is None:
       params = self.policy.init(jax.random.fold_in(self.key(r, _FIT), 0))
     else:
+      steps, lr = int(c.rounds.refit_steps), float(c.rounds.refit_lr or c.fit.lr)
       params = init_state.params
+    tx = self.optimizer(steps, lr)
     # fit donates its input state: build it from copies, so `norm` and `init_state` stay usable.
     state = jax.tree.map(jnp.copy, train_state.create(params, tx, norm, ema=c.fit.ema))
     state, history = fit_lib.fit(self.policy, tx, state, buf, jax.random.fold_in(self.key(r, _FIT), 1), steps,

@@ -199,8 +199,8 @@ def aggregate(workdirs: list[str]) -> tuple[str, str]:
                       runs[0]["workdir"])
       continue
     runs.append(s)
-  header = ["task", "method", "variant", "seeds", "pass_at_k", "jerk", "rollouts", "sr_before", "sr_after", "sr_after_episodes",
-            "sr_after_wilson", "improvement_abs", "improvement_rel", "round_wall_s"]
+  header = ["task", "method", "variant", "seeds", "pass_at_k", "jerk", "rollouts", "sr_before", "sr_after",
+            "sr_after_episodes", "sr_after_wilson", "improvement_abs", "improvement_rel", "round_wall_s"]
   rows = []
   for (task, method, v), runs in sorted(groups.items()):
     after = [r for r in runs if "sr_after" in r]
