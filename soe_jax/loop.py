@@ -362,11 +362,13 @@ REFITS = ("continue", "scratch")
 
 
 def validate(config: ml_collections.ConfigDict) -> None:
-  """Names that would otherwise only fail after round 0's fit: strategy, selection, re-fit mode."""
+  """What would otherwise only fail after round 0's fit: strategy, selection, re-fit mode and rate."""
   strategies.check_name(config.explore.strategy)
   select_lib.check_name(config.rounds.select)
   if config.rounds.refit not in REFITS:
     raise ValueError(f"unknown re-fit mode {config.rounds.refit!r}; known: {', '.join(REFITS)}")
+  if config.rounds.refit_lr < 0:
+    raise ValueError(f"rounds.refit_lr must be >= 0 (0: fit.lr), got {config.rounds.refit_lr}")
 
 
 def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) -> dict:

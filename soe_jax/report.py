@@ -182,23 +182,19 @@ def aggregate(workdirs: list[str]) -> tuple[str, str]:
   the 95% Wilson interval of all their episodes pooled, and the episode count; the wall time of a
   round (explore, re-fit, evaluate) in seconds. Of two runs with the same config and seed, the first
   counts."""
-  summaries = [summarize(w) for w in workdirs]
-  settings = [_settings(w) for w in workdirs]
-  variant = [""] * len(workdirs)
-  by_method: dict[tuple, list[int]] = {}
-  for i, s in enumerate(summaries):
-    by_method.setdefault((s["task"], s["method"]), []).append(i)
-  for idx in by_method.values():
-    for i, v in zip(idx, _variants([settings[i] for i in idx])):
-      variant[i] = v
+  by_method: dict[tuple, list[tuple[dict, dict]]] = {}
+  for w in workdirs:
+    s = summarize(w)
+    by_method.setdefault((s["task"], s["method"]), []).append((s, _settings(w)))
   groups: dict[tuple, list[dict]] = {}
-  for s, v in zip(summaries, variant):
-    runs = groups.setdefault((s["task"], s["method"], v), [])
-    if s["seed"] in [r["seed"] for r in runs]:
-      logging.warning("%s repeats seed %s of %s with the same config; left out of the table", s["workdir"], s["seed"],
-                      runs[0]["workdir"])
-      continue
-    runs.append(s)
+  for (task, method), found in by_method.items():
+    for (s, _), v in zip(found, _variants([settings for _, settings in found])):
+      runs = groups.setdefault((task, method, v), [])
+      if s["seed"] in [r["seed"] for r in runs]:
+        logging.warning("%s repeats seed %s of %s with the same config; left out of the table", s["workdir"],
+                        s["seed"], runs[0]["workdir"])
+        continue
+      runs.append(s)
   header = ["task", "method", "variant", "seeds", "pass_at_k", "jerk", "rollouts", "sr_before", "sr_after",
             "sr_after_episodes", "sr_after_wilson", "improvement_abs", "improvement_rel", "round_wall_s"]
   rows = []

@@ -144,7 +144,8 @@ def test_the_cpu_preset_takes_the_tasks_own_demonstrations_and_steps():
 def test_unknown_names_are_refused_before_any_work(tmp_path):
   for field, value, message in [("explore.strategy", "noise", "known strategies: none, sime"),
                                 ("rounds.select", "best", "known selections: first_success"),
-                                ("rounds.refit", "warm", "known: continue, scratch")]:
+                                ("rounds.refit", "warm", "known: continue, scratch"),
+                                ("rounds.refit_lr", -1e-4, r"refit_lr must be >= 0")]:
     config = lift_config.get_config("smoke")
     section, name = field.split(".")
     config[section][name] = value
