@@ -48,35 +48,71 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   c = ml_collections.ConfigDict()
   c.seed = 0
   c.env = ml_collections.ConfigDict(dict(task=task, backend="auto", action_mode="absolute", horizon=400))
-  c.data = ml_collections.ConfigDict(dict(num_demos=num_demos, demo_seed=1000, hdf5_path="", max_length=400,
-                                          capacity=2048))
-  c.policy = ml_collections.ConfigDict(dict(
-      n_obs_steps=2, horizon=16, n_action_steps=8,
-      head=dict(name="diffusion_unet", kwargs=dict(down_dims=(256, 512, 1024), step_embed_dim=256, kernel_size=5,
-                                                   n_groups=8, sampler="ddim", num_inference_steps=10)),
+  c.data = ml_collections.ConfigDict(
+    dict(num_demos=num_demos, demo_seed=1000, hdf5_path="", max_length=400, capacity=2048)
+  )
+  c.policy = ml_collections.ConfigDict(
+    dict(
+      n_obs_steps=2,
+      horizon=16,
+      n_action_steps=8,
+      head=dict(
+        name="diffusion_unet",
+        kwargs=dict(
+          down_dims=(256, 512, 1024),
+          step_embed_dim=256,
+          kernel_size=5,
+          n_groups=8,
+          sampler="ddim",
+          num_inference_steps=10,
+        ),
+      ),
       encoder=dict(name="lowdim", kwargs={}),
       bypass=dict(enabled=True, latent_dim=16, hidden=256, beta=1e-3),
       normalizer_margin=0.1,
-  ))
-  c.fit = ml_collections.ConfigDict(dict(num_steps=25_000, batch_size=256, chunk_size=250, lr=3e-4, warmup_steps=500,
-                                         betas=(0.95, 0.999), eps=1e-8, weight_decay=1e-6, ema=True))
+    )
+  )
+  c.fit = ml_collections.ConfigDict(
+    dict(
+      num_steps=25_000,
+      batch_size=256,
+      chunk_size=250,
+      lr=3e-4,
+      warmup_steps=500,
+      betas=(0.95, 0.999),
+      eps=1e-8,
+      weight_decay=1e-6,
+      ema=True,
+    )
+  )
   # Exploration: `tries` rollouts from each of `num_start_states` start states per round.
-  c.explore = ml_collections.ConfigDict(dict(
-      method="soe", strategy="soe", alpha=2.0, num_start_states=100, tries=5, slice_size=0, decisions_per_call=10,
+  c.explore = ml_collections.ConfigDict(
+    dict(
+      method="soe",
+      strategy="soe",
+      alpha=2.0,
+      num_start_states=100,
+      tries=5,
+      slice_size=0,
+      decisions_per_call=10,
       sime=dict(scale=0.01, tau1=0.0, tau2=1.0),
-      steer=dict(num_proposals=32, num_choices=5, every=1, threshold_db=0.0, max_dims=0, snr_windows=2048)))
+      steer=dict(num_proposals=32, num_choices=5, every=1, threshold_db=0.0, max_dims=0, snr_windows=2048),
+    )
+  )
   c.eval = ml_collections.ConfigDict(dict(num_start_states=100, seed=77_777))
   # Rounds after round 0: select episodes (first_success | all_successes | sime), append, re-fit
   # (continue from the previous round's parameters for refit_steps at a peak lr of refit_lr, 0 meaning
   # fit.lr; or scratch), evaluate.
   # round0_dir: where the shared round 0 lives ("" = <workdir>/../round0).
-  c.rounds = ml_collections.ConfigDict(dict(num_rounds=3, select="first_success", refit="continue",
-                                            refit_steps=10_000, refit_lr=0.0, round0_dir=""))
+  c.rounds = ml_collections.ConfigDict(
+    dict(num_rounds=3, select="first_success", refit="continue", refit_steps=10_000, refit_lr=0.0, round0_dir="")
+  )
   return c
 
 
-def apply_presets(c: ml_collections.ConfigDict, arg: str | None, cpu_demos: int | None = None,
-                  cpu_steps: int = 5000) -> ml_collections.ConfigDict:
+def apply_presets(
+  c: ml_collections.ConfigDict, arg: str | None, cpu_demos: int | None = None, cpu_steps: int = 5000
+) -> ml_collections.ConfigDict:
   """`cpu_demos`, `cpu_steps`: the task's number of demonstrations and round-0 fit steps under the `cpu`
   preset (a task may need more than the paper's few demonstrations, or a longer fit, for its small UNet
   to reach the 20-80% base success the experiment wants)."""

@@ -20,6 +20,7 @@ def main(argv):
   if len(argv) != 2:
     raise app.UsageError("usage: python -m soe_jax.aggregate RUNS_DIR [--out=PATH]")
   from soe_jax import report
+
   root = argv[1]
   runs = report.find_runs(root)
   if not runs:

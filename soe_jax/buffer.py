@@ -39,10 +39,15 @@ class EpisodeBuffer:
 
 
 def create(capacity: int, max_length: int, obs_dim: int, action_dim: int) -> EpisodeBuffer:
-  return EpisodeBuffer(obs=jnp.zeros((capacity, max_length, obs_dim)), actions=jnp.zeros((capacity, max_length, action_dim)),
-                       length=jnp.zeros(capacity, jnp.int32), valid=jnp.zeros(capacity, bool),
-                       source=jnp.zeros(capacity, jnp.int32), steered=jnp.zeros(capacity, bool),
-                       count=jnp.zeros((), jnp.int32))
+  return EpisodeBuffer(
+    obs=jnp.zeros((capacity, max_length, obs_dim)),
+    actions=jnp.zeros((capacity, max_length, action_dim)),
+    length=jnp.zeros(capacity, jnp.int32),
+    valid=jnp.zeros(capacity, bool),
+    source=jnp.zeros(capacity, jnp.int32),
+    steered=jnp.zeros(capacity, bool),
+    count=jnp.zeros((), jnp.int32),
+  )
 
 
 def pad_episodes(episodes: list[dict], max_length: int, obs_key: str = "policy_obs") -> dict:
@@ -76,10 +81,15 @@ def add(buffer: EpisodeBuffer, obs, actions, length, keep, source, steered=None)
     return dst.at[slots].set(src[order], mode="drop")
 
   source = jnp.broadcast_to(jnp.asarray(source, jnp.int32), (m,))
-  return buffer.replace(obs=put(buffer.obs, obs), actions=put(buffer.actions, actions),
-                        length=put(buffer.length, length.astype(jnp.int32)), valid=buffer.valid.at[slots].set(True, mode="drop"),
-                        source=put(buffer.source, source), steered=put(buffer.steered, steered),
-                        count=jnp.minimum(buffer.count + n_keep, buffer.capacity))
+  return buffer.replace(
+    obs=put(buffer.obs, obs),
+    actions=put(buffer.actions, actions),
+    length=put(buffer.length, length.astype(jnp.int32)),
+    valid=buffer.valid.at[slots].set(True, mode="drop"),
+    source=put(buffer.source, source),
+    steered=put(buffer.steered, steered),
+    count=jnp.minimum(buffer.count + n_keep, buffer.capacity),
+  )
 
 
 def num_windows(buffer: EpisodeBuffer, horizon: int, n_obs_steps: int, n_action_steps: int) -> jax.Array:
@@ -88,8 +98,9 @@ def num_windows(buffer: EpisodeBuffer, horizon: int, n_obs_steps: int, n_action_
   return jnp.where(buffer.valid, jnp.maximum(w, 1), 0)
 
 
-def sample_windows(buffer: EpisodeBuffer, key, batch_size: int, horizon: int, n_obs_steps: int,
-                   n_action_steps: int) -> dict:
+def sample_windows(
+  buffer: EpisodeBuffer, key, batch_size: int, horizon: int, n_obs_steps: int, n_action_steps: int
+) -> dict:
   """-> {"obs": (B, To, D), "actions": (B, T, A)}, raw (not normalised)."""
   counts = num_windows(buffer, horizon, n_obs_steps, n_action_steps)
   cum = jnp.cumsum(counts)

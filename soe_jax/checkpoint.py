@@ -28,8 +28,9 @@ CONFIG_FILE = "config.json"
 
 def policy_from_config(config: ml_collections.ConfigDict) -> Policy:
   """The policy a run's config describes, sized for its task and action mode."""
-  return make_policy(config.policy, registry.observation_size(config.env.task),
-                     controller.action_size(config.env.action_mode))
+  return make_policy(
+    config.policy, registry.observation_size(config.env.task), controller.action_size(config.env.action_mode)
+  )
 
 
 def abstract_state(config: ml_collections.ConfigDict, policy: Policy) -> train_state.TrainState:

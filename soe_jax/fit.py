@@ -29,8 +29,9 @@ def make_train_step(policy: Policy, tx: optax.GradientTransformation, batch_size
 
   def train_step(state: train_state.TrainState, buf: buffer_lib.EpisodeBuffer, key):
     key_batch, key_loss = jax.random.split(key)
-    raw = buffer_lib.sample_windows(buf, key_batch, batch_size, policy.horizon, policy.n_obs_steps,
-                                    policy.n_action_steps)
+    raw = buffer_lib.sample_windows(
+      buf, key_batch, batch_size, policy.horizon, policy.n_obs_steps, policy.n_action_steps
+    )
     norm = state.normalizer
     batch = {"obs": norm.normalize_obs(raw["obs"]), "actions": norm.normalize_actions(raw["actions"])}
     batch = jax.lax.with_sharding_constraint(batch, data)
@@ -41,7 +42,9 @@ def make_train_step(policy: Policy, tx: optax.GradientTransformation, batch_size
     ema = state.ema_params
     if ema is not None:
       ema = train_state.ema_update(ema, params, train_state.ema_decay(step))
-    metrics = dict(aux, loss=loss, grad_norm=optax.global_norm(grads), obs_clip_fraction=norm.obs_clip_fraction(raw["obs"]))
+    metrics = dict(
+      aux, loss=loss, grad_norm=optax.global_norm(grads), obs_clip_fraction=norm.obs_clip_fraction(raw["obs"])
+    )
     return state.replace(step=step, params=params, ema_params=ema, opt_state=opt_state), metrics
 
   return train_step
@@ -55,15 +58,24 @@ def _chunk_fn(policy: Policy, tx, batch_size: int, length: int, mesh):
   def chunk(state, buf, key):
     def body(state, k):
       return train_step(state, buf, k)
+
     state, metrics = jax.lax.scan(body, state, jax.random.split(key, length))
     return state, jax.tree.map(jnp.mean, metrics) | {"last_loss": metrics["loss"][-1]}
 
   return chunk
 
 
-def fit(policy: Policy, tx: optax.GradientTransformation, state: train_state.TrainState,
-        buf: buffer_lib.EpisodeBuffer, key, num_steps: int, config: ml_collections.ConfigDict,
-        progress: bool = True, desc: str = "fit"):
+def fit(
+  policy: Policy,
+  tx: optax.GradientTransformation,
+  state: train_state.TrainState,
+  buf: buffer_lib.EpisodeBuffer,
+  key,
+  num_steps: int,
+  config: ml_collections.ConfigDict,
+  progress: bool = True,
+  desc: str = "fit",
+):
   """Run `num_steps` SGD steps -> (state, per-chunk metrics list). `config`: batch_size, chunk_size.
 
   Raises NonFiniteLossError between chunks if the loss is not finite."""

@@ -51,11 +51,15 @@ _NOT_ROUND0 = ("explore", "rounds")
 
 # -- config bookkeeping --------------------------------------------------------------------------
 
+
 def config_diff(saved: dict, current: dict) -> list[str]:
   """Fields whose values differ, as 'a.b: saved -> current'."""
   a, b = runlog.flatten(saved), runlog.flatten(current)
-  return [f"{k}: {a.get(k, '<missing>')!r} -> {b.get(k, '<missing>')!r}" for k in sorted(set(a) | set(b))
-          if a.get(k, "<missing>") != b.get(k, "<missing>")]
+  return [
+    f"{k}: {a.get(k, '<missing>')!r} -> {b.get(k, '<missing>')!r}"
+    for k in sorted(set(a) | set(b))
+    if a.get(k, "<missing>") != b.get(k, "<missing>")
+  ]
 
 
 def _plain(config: ml_collections.ConfigDict) -> dict:
@@ -86,8 +90,11 @@ def check_config(workdir: str, config: ml_collections.ConfigDict) -> None:
       saved["rounds"]["num_rounds"] = current["rounds"]["num_rounds"]
     diff = config_diff(saved, current)
     if diff:
-      raise ValueError(f"the config does not match the one saved in {path}; differing fields:\n  " + "\n  ".join(diff)
-                       + "\nuse a new --workdir, or the saved config")
+      raise ValueError(
+        f"the config does not match the one saved in {path}; differing fields:\n  "
+        + "\n  ".join(diff)
+        + "\nuse a new --workdir, or the saved config"
+      )
     if extended:
       _write_json(path, current)
   else:
@@ -115,7 +122,9 @@ def load_config(workdir: str) -> ml_collections.ConfigDict:
 
 def checkpoint_dir(config: ml_collections.ConfigDict, workdir: str, r: int) -> str:
   """Where round `r`'s policy is saved (round 0: the shared round-0 directory)."""
-  path = os.path.join(round0_dir(config, workdir), "ckpt") if r == 0 else os.path.join(workdir, "rounds", str(r), "ckpt")
+  path = (
+    os.path.join(round0_dir(config, workdir), "ckpt") if r == 0 else os.path.join(workdir, "rounds", str(r), "ckpt")
+  )
   if not os.path.exists(os.path.join(path, checkpoint.CONFIG_FILE)):
     raise FileNotFoundError(f"round {r} of {workdir!r} has no checkpoint at {path} (not run yet?)")
   return path
@@ -124,8 +133,15 @@ def checkpoint_dir(config: ml_collections.ConfigDict, workdir: str, r: int) -> s
 def last_round(config: ml_collections.ConfigDict, workdir: str) -> int:
   """The last round with a saved checkpoint (0 if only round 0 has one)."""
   rounds_dir = os.path.join(workdir, "rounds")
-  done = [int(d) for d in os.listdir(rounds_dir) if d.isdigit() and
-          os.path.exists(os.path.join(rounds_dir, d, "ckpt", checkpoint.CONFIG_FILE))] if os.path.isdir(rounds_dir) else []
+  done = (
+    [
+      int(d)
+      for d in os.listdir(rounds_dir)
+      if d.isdigit() and os.path.exists(os.path.join(rounds_dir, d, "ckpt", checkpoint.CONFIG_FILE))
+    ]
+    if os.path.isdir(rounds_dir)
+    else []
+  )
   return max(done, default=0)
 
 
@@ -136,7 +152,7 @@ def split_policy_obs(obs: np.ndarray) -> dict:
   out, start = {}, 0
   for k in manipulation.POLICY_OBS_KEYS:
     size = sizes.get(k, obs.shape[-1] - start)
-    out[k] = obs[..., start:start + size]
+    out[k] = obs[..., start : start + size]
     start += size
   return out
 
@@ -152,8 +168,14 @@ def rollout_episodes(out: dict, mask: np.ndarray) -> list[dict]:
   eps = []
   for i in np.flatnonzero(mask):
     t = int(out["length"][i])
-    eps.append(dict(obs=split_policy_obs(out["obs"][i, :t]), actions=out["actions"][i, :t], states=out["qpos"][i, :t],
-                    success=bool(out["success"][i])))
+    eps.append(
+      dict(
+        obs=split_policy_obs(out["obs"][i, :t]),
+        actions=out["actions"][i, :t],
+        states=out["qpos"][i, :t],
+        success=bool(out["success"][i]),
+      )
+    )
   return eps
 
 
@@ -184,8 +206,9 @@ def build_buffer(config, policy, episode_sets: list[tuple]) -> buffer_lib.Episod
     if episodes:
       n = len(episodes)
       p = buffer_lib.pad_episodes([policy_episode(e) for e in episodes], buf.max_length)
-      buf = buffer_lib.add(buf, p["obs"], p["actions"], p["length"], np.ones(n, bool), source,
-                           np.full(n, bool(steered and steered[0])))
+      buf = buffer_lib.add(
+        buf, p["obs"], p["actions"], p["length"], np.ones(n, bool), source, np.full(n, bool(steered and steered[0]))
+      )
   return buf
 
 
@@ -208,9 +231,14 @@ def start_keys(config: ml_collections.ConfigDict) -> dict:
 def _rollout_metrics(out: dict, tries: int) -> dict:
   s = out["success"].reshape(-1, tries)
   sr = metrics.success_rate(out["success"])
-  rec = dict(success_rate=sr["rate"], num_rollouts=sr["num_episodes"], wilson_low=sr["wilson_low"],
-             wilson_high=sr["wilson_high"], jerk=metrics.average_jerk(out["eef_pos"], out["length"] + 1),
-             mean_length=float(out["length"].mean()))
+  rec = dict(
+    success_rate=sr["rate"],
+    num_rollouts=sr["num_episodes"],
+    wilson_low=sr["wilson_low"],
+    wilson_high=sr["wilson_high"],
+    jerk=metrics.average_jerk(out["eef_pos"], out["length"] + 1),
+    mean_length=float(out["length"].mean()),
+  )
   if tries > 1:
     r = metrics.rollouts(s)
     rec.update(k=tries, pass_at_k=metrics.pass_at_k(s), rollouts=r["sum"], rollouts_mean=r["mean"])
@@ -252,9 +280,18 @@ class Experiment:
   # rollouts: one code path for evaluation and exploration
   def _rollout(self, state, strategy, reset_keys, key, desc):
     slice_size = int(self.config.explore.slice_size) or None
-    return rollout.rollout(self.env, self.policy, strategies.Agent.from_state(state), strategy, reset_keys, key,
-                           slice_size=slice_size, decisions_per_call=int(self.config.explore.decisions_per_call),
-                           progress=self.progress, desc=desc)
+    return rollout.rollout(
+      self.env,
+      self.policy,
+      strategies.Agent.from_state(state),
+      strategy,
+      reset_keys,
+      key,
+      slice_size=slice_size,
+      decisions_per_call=int(self.config.explore.decisions_per_call),
+      progress=self.progress,
+      desc=desc,
+    )
 
   def evaluate(self, state, r: int) -> dict:
     n = int(self.config.eval.num_start_states)
@@ -267,8 +304,13 @@ class Experiment:
     dims = ()
     extra = {}
     if c.strategy == "soe_steer":
-      snr = steering.buffer_snr(self.policy, strategies.Agent.from_state(state), buf,
-                                jax.random.fold_in(self.key(r, _EXPLORE), 1), int(c.steer.snr_windows))
+      snr = steering.buffer_snr(
+        self.policy,
+        strategies.Agent.from_state(state),
+        buf,
+        jax.random.fold_in(self.key(r, _EXPLORE), 1),
+        int(c.steer.snr_windows),
+      )
       dims = steering.steering_dims(snr, float(c.steer.threshold_db), int(c.steer.max_dims) or None)
       extra = dict(snr_db=[round(float(x), 2) for x in snr], steer_dims=list(dims))
     strategy = strategies.make_strategy(c.strategy, c, env=self.env, dims=dims)
@@ -278,8 +320,13 @@ class Experiment:
     reset_keys = jnp.repeat(states, tries, axis=0)  # the k tries of a start state are adjacent
     out = self._rollout(state, strategy, reset_keys, self.key(r, _EXPLORE), f"round {r} explore ({c.strategy})")
     keep = select_lib.select(out["success"].reshape(-1, tries), self.config.rounds.select).reshape(-1)
-    rec = dict(_rollout_metrics(out, tries), strategy=c.strategy, num_episodes=int(keep.sum()),
-               success=out["success"].astype(int).tolist(), **extra)
+    rec = dict(
+      _rollout_metrics(out, tries),
+      strategy=c.strategy,
+      num_episodes=int(keep.sum()),
+      success=out["success"].astype(int).tolist(),
+      **extra,
+    )
     if "steered" in out["aux"]:
       rec["steered_fraction"] = float(out["aux"]["steered"].mean())
     return rec, rollout_episodes(out, keep)
@@ -297,8 +344,17 @@ class Experiment:
     tx = self.optimizer(steps, lr)
     # fit donates its input state: build it from copies, so `norm` and `init_state` stay usable.
     state = jax.tree.map(jnp.copy, train_state.create(params, tx, norm, ema=c.fit.ema))
-    state, history = fit_lib.fit(self.policy, tx, state, buf, jax.random.fold_in(self.key(r, _FIT), 1), steps,
-                                 c.fit, progress=self.progress, desc=f"round {r} fit")
+    state, history = fit_lib.fit(
+      self.policy,
+      tx,
+      state,
+      buf,
+      jax.random.fold_in(self.key(r, _FIT), 1),
+      steps,
+      c.fit,
+      progress=self.progress,
+      desc=f"round {r} fit",
+    )
     return state, dict(steps=steps, final_loss=history[-1]["loss"], loss_curve=[h["loss"] for h in history])
 
   def timed(self, fn):
@@ -325,8 +381,11 @@ def round0(exp: Experiment) -> tuple:
     hdf5.write_episodes(demos_path, episodes, dict(env_name=exp.env.name, source="demonstrations"))
   demos, _ = hdf5.read_episodes(demos_path)
   flat = [policy_episode(e) for e in demos]
-  norm = normalizer_lib.fit(np.concatenate([e["policy_obs"] for e in flat]), np.concatenate([e["actions"] for e in flat]),
-                            margin=float(exp.config.policy.normalizer_margin))
+  norm = normalizer_lib.fit(
+    np.concatenate([e["policy_obs"] for e in flat]),
+    np.concatenate([e["actions"] for e in flat]),
+    margin=float(exp.config.policy.normalizer_margin),
+  )
   ckpt = os.path.join(directory, "ckpt")
   fit_path = os.path.join(directory, "fit.json")
   if os.path.exists(fit_path):
@@ -343,9 +402,26 @@ def round0(exp: Experiment) -> tuple:
   return demos, norm, state
 
 
-LINE_KEYS = ("round", "phase", "method", "success_rate", "num_rollouts", "wilson_low", "wilson_high", "pass_at_k", "k",
-             "rollouts", "rollouts_mean", "jerk", "num_episodes", "time_compile_s", "time_fit_s", "time_explore_s",
-             "time_evaluate_s", "time_total_s")
+LINE_KEYS = (
+  "round",
+  "phase",
+  "method",
+  "success_rate",
+  "num_rollouts",
+  "wilson_low",
+  "wilson_high",
+  "pass_at_k",
+  "k",
+  "rollouts",
+  "rollouts_mean",
+  "jerk",
+  "num_episodes",
+  "time_compile_s",
+  "time_fit_s",
+  "time_explore_s",
+  "time_evaluate_s",
+  "time_total_s",
+)
 
 
 def _line(rec: dict, method: str) -> dict:
@@ -397,8 +473,11 @@ def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
       if not os.path.exists(explore_path):
         buf = build_buffer(config, exp.policy, [(demos, 0)] + selected)
         (rec, episodes), times = exp.timed(lambda: exp.explore(state, r, buf))
-        hdf5.write_episodes(data_path, episodes, dict(env_name=exp.env.name, source=f"round {r} exploration",
-                                                      strategy=config.explore.strategy))
+        hdf5.write_episodes(
+          data_path,
+          episodes,
+          dict(env_name=exp.env.name, source=f"round {r} exploration", strategy=config.explore.strategy),
+        )
         _write_json(explore_path, dict(rec, round=r, phase="explore", **times))
       rec = _read_json(explore_path)
       if (r, "explore") not in logged:

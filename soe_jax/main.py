@@ -29,10 +29,12 @@ def main(argv):
     raise app.UsageError("--config=configs/<task>.py[:PRESETS] is required")
   logging.set_verbosity(logging.WARNING)  # keep the console to progress bars and phase summaries
   from soe_jax import compile_cache, loop
+
   compile_cache.enable()
   config = FLAGS.config
   workdir = FLAGS.workdir or os.path.join(
-      "runs", f"{config.env.task}-{config.explore.method}-{datetime.datetime.now():%Y%m%d-%H%M%S}")
+    "runs", f"{config.env.task}-{config.explore.method}-{datetime.datetime.now():%Y%m%d-%H%M%S}"
+  )
   summary = loop.run(config, workdir, progress=FLAGS.progress)
   print(f"report: {os.path.join(workdir, 'report.md')}")
   print(json.dumps(summary))

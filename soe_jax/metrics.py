@@ -65,7 +65,7 @@ def episode_jerk(positions, length: int | None = None, dt: float = CONTROL_DT) -
 
 def average_jerk(positions, lengths, dt: float = CONTROL_DT) -> float:
   """positions (N, T, 3), lengths (N,) -> the mean over episodes of each episode's jerk."""
-  return float(np.mean([episode_jerk(p, int(l), dt) for p, l in zip(positions, lengths)]))
+  return float(np.mean([episode_jerk(p, int(n), dt) for p, n in zip(positions, lengths)]))
 
 
 def relative_improvement(before: float, after: float) -> dict:

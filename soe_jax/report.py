@@ -57,23 +57,38 @@ def _summarize(workdir: str) -> tuple[dict, dict]:
   rounds = sorted({r for r, p in phases if p == "evaluate"})
   before, after = phases.get((0, "evaluate")), phases.get((rounds[-1], "evaluate")) if rounds else None
   first = phases.get((1, "explore"))
-  out = dict(workdir=os.path.abspath(workdir), task=config["env"]["task"], method=config["explore"]["method"],
-             seed=config["seed"], rounds=rounds,
-             success_per_round=[phases[(r, "evaluate")]["success_rate"] for r in rounds],
-             episodes_per_round=[phases[(r, "evaluate")]["num_rollouts"] for r in rounds],
-             pass_at_k_per_round=[phases.get((r, "explore"), {}).get("pass_at_k") for r in rounds],
-             rollouts_per_round=[phases.get((r, "explore"), {}).get("rollouts") for r in rounds])
+  out = dict(
+    workdir=os.path.abspath(workdir),
+    task=config["env"]["task"],
+    method=config["explore"]["method"],
+    seed=config["seed"],
+    rounds=rounds,
+    success_per_round=[phases[(r, "evaluate")]["success_rate"] for r in rounds],
+    episodes_per_round=[phases[(r, "evaluate")]["num_rollouts"] for r in rounds],
+    pass_at_k_per_round=[phases.get((r, "explore"), {}).get("pass_at_k") for r in rounds],
+    rollouts_per_round=[phases.get((r, "explore"), {}).get("rollouts") for r in rounds],
+  )
   walls = [_round_wall_s(phases, r) for r in rounds if r > 0]
   if walls:
     out["round_wall_s"] = float(np.mean(walls))  # one round of explore, re-fit, evaluate
   if first is not None:
-    out.update(pass_at_k=first["pass_at_k"], k=first["k"], jerk=first["jerk"], rollouts=first["rollouts"],
-               rollouts_mean=first["rollouts_mean"])
+    out.update(
+      pass_at_k=first["pass_at_k"],
+      k=first["k"],
+      jerk=first["jerk"],
+      rollouts=first["rollouts"],
+      rollouts_mean=first["rollouts_mean"],
+    )
   if before is not None and after is not None:
     imp = metrics.relative_improvement(before["success_rate"], after["success_rate"])
-    out.update(sr_before=before["success_rate"], sr_after=after["success_rate"], sr_episodes=after["num_rollouts"],
-               sr_after_wilson=(after["wilson_low"], after["wilson_high"]), improvement_abs=imp["absolute"],
-               improvement_rel=imp["relative"])
+    out.update(
+      sr_before=before["success_rate"],
+      sr_after=after["success_rate"],
+      sr_episodes=after["num_rollouts"],
+      sr_after_wilson=(after["wilson_low"], after["wilson_high"]),
+      improvement_abs=imp["absolute"],
+      improvement_rel=imp["relative"],
+    )
   return out, phases
 
 
@@ -89,22 +104,31 @@ def write(workdir: str) -> dict:
   """Write `report.md` and the plots; return the summary."""
   s, phases = _summarize(workdir)
   k = s.get("k", 5)
-  md = [f"# {s['task']}: {s['method']} (seed {s['seed']})", "",
-        f"| Method | Pass@{k} | Avg. jerk (m/s^3) | Rollouts | Success before | Success after | Relative improvement |",
-        "|---|---|---|---|---|---|---|",
-        f"| {s['method']} | {_pct(s.get('pass_at_k'))} | {s.get('jerk', float('nan')):.1f} | {s.get('rollouts', '-')} "
-        f"| {_sr(phases.get((0, 'evaluate')))} | {_sr(phases.get((s['rounds'][-1], 'evaluate')) if s['rounds'] else None)} "
-        f"| {_improvement(s)} |", "",
-        "Pass@k, jerk and rollouts: the first exploration round (from the shared round-0 policy). Success: the base "
-        "path on the fixed evaluation start states, with its 95% Wilson interval and episode count.", "",
-        "## Per round", "", f"| Round | Success | Pass@{k} | Rollouts | Jerk | Episodes kept | Fit loss | Wall time (s) |",
-        "|---|---|---|---|---|---|---|---|"]
+  md = [
+    f"# {s['task']}: {s['method']} (seed {s['seed']})",
+    "",
+    f"| Method | Pass@{k} | Avg. jerk (m/s^3) | Rollouts | Success before | Success after | Relative improvement |",
+    "|---|---|---|---|---|---|---|",
+    f"| {s['method']} | {_pct(s.get('pass_at_k'))} | {s.get('jerk', float('nan')):.1f} | {s.get('rollouts', '-')} "
+    f"| {_sr(phases.get((0, 'evaluate')))} | {_sr(phases.get((s['rounds'][-1], 'evaluate')) if s['rounds'] else None)} "
+    f"| {_improvement(s)} |",
+    "",
+    "Pass@k, jerk and rollouts: the first exploration round (from the shared round-0 policy). Success: the base "
+    "path on the fixed evaluation start states, with its 95% Wilson interval and episode count.",
+    "",
+    "## Per round",
+    "",
+    f"| Round | Success | Pass@{k} | Rollouts | Jerk | Episodes kept | Fit loss | Wall time (s) |",
+    "|---|---|---|---|---|---|---|---|",
+  ]
   for r in s["rounds"]:
     ex, fi, ev = phases.get((r, "explore"), {}), phases.get((r, "fit"), {}), phases.get((r, "evaluate"), {})
     jerk = f"{ex['jerk']:.1f}" if ex else "-"
     loss = f"{fi['final_loss']:.4f}" if fi else "-"
-    md.append(f"| {r} | {_sr(ev)} | {_pct(ex.get('pass_at_k'))} | {ex.get('rollouts', '-')} | {jerk} "
-              f"| {ex.get('num_episodes', '-')} | {loss} | {_round_wall_s(phases, r):.0f} |")
+    md.append(
+      f"| {r} | {_sr(ev)} | {_pct(ex.get('pass_at_k'))} | {ex.get('rollouts', '-')} | {jerk} "
+      f"| {ex.get('num_episodes', '-')} | {loss} | {_round_wall_s(phases, r):.0f} |"
+    )
   md += ["", "![success over rounds](success.png)", "", "![exploration over rounds](exploration.png)", ""]
   with open(os.path.join(workdir, "report.md"), "w") as f:
     f.write("\n".join(md))
@@ -114,6 +138,7 @@ def write(workdir: str) -> dict:
 
 def _plots(workdir: str, s: dict) -> None:
   import matplotlib
+
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt
 
@@ -123,8 +148,13 @@ def _plots(workdir: str, s: dict) -> None:
   ci = np.array([metrics.wilson_interval(int(round(p * m)), int(m)) for p, m in zip(sr, n)]).reshape(-1, 2)
   fig, ax = plt.subplots(figsize=(5, 3.5))
   ax.errorbar(rounds, 100 * sr, yerr=100 * np.abs(ci.T - sr), marker="o", capsize=3)
-  ax.set(xlabel="round", ylabel="success rate (%)", title=f"{s['task']} {s['method']}: success (95% Wilson)",
-         ylim=(0, 100), xticks=rounds)
+  ax.set(
+    xlabel="round",
+    ylabel="success rate (%)",
+    title=f"{s['task']} {s['method']}: success (95% Wilson)",
+    ylim=(0, 100),
+    xticks=rounds,
+  )
   fig.tight_layout()
   fig.savefig(os.path.join(workdir, "success.png"), dpi=100)
   plt.close(fig)
@@ -191,26 +221,54 @@ def aggregate(workdirs: list[str]) -> tuple[str, str]:
     for (s, _), v in zip(found, _variants([settings for _, settings in found])):
       runs = groups.setdefault((task, method, v), [])
       if s["seed"] in [r["seed"] for r in runs]:
-        logging.warning("%s repeats seed %s of %s with the same config; left out of the table", s["workdir"],
-                        s["seed"], runs[0]["workdir"])
+        logging.warning(
+          "%s repeats seed %s of %s with the same config; left out of the table",
+          s["workdir"],
+          s["seed"],
+          runs[0]["workdir"],
+        )
         continue
       runs.append(s)
-  header = ["task", "method", "variant", "seeds", "pass_at_k", "jerk", "rollouts", "sr_before", "sr_after",
-            "sr_after_episodes", "sr_after_wilson", "improvement_abs", "improvement_rel", "round_wall_s"]
+  header = [
+    "task",
+    "method",
+    "variant",
+    "seeds",
+    "pass_at_k",
+    "jerk",
+    "rollouts",
+    "sr_before",
+    "sr_after",
+    "sr_after_episodes",
+    "sr_after_wilson",
+    "improvement_abs",
+    "improvement_rel",
+    "round_wall_s",
+  ]
   rows = []
   for (task, method, v), runs in sorted(groups.items()):
     after = [r for r in runs if "sr_after" in r]
     n = sum(r["sr_episodes"] for r in after)
     successes = sum(int(round(r["sr_after"] * r["sr_episodes"])) for r in after)
     lo, hi = metrics.wilson_interval(successes, n)
-    rows.append(dict(task=task, method=method, variant=v, seeds=len(runs),
-                     pass_at_k=_mean_std([r.get("pass_at_k") for r in runs]), jerk=_mean_std([r.get("jerk") for r in runs]),
-                     rollouts=_mean_std([r.get("rollouts") for r in runs]),
-                     sr_before=_mean_std([r.get("sr_before") for r in runs]), sr_after=_mean_std([r.get("sr_after") for r in runs]),
-                     sr_after_episodes=n, sr_after_wilson=f"[{lo:.3f}, {hi:.3f}]",
-                     improvement_abs=_mean_std([r.get("improvement_abs") for r in runs]),
-                     improvement_rel=_mean_std([r.get("improvement_rel") for r in runs]),
-                     round_wall_s=_mean_std([r.get("round_wall_s") for r in runs])))
+    rows.append(
+      dict(
+        task=task,
+        method=method,
+        variant=v,
+        seeds=len(runs),
+        pass_at_k=_mean_std([r.get("pass_at_k") for r in runs]),
+        jerk=_mean_std([r.get("jerk") for r in runs]),
+        rollouts=_mean_std([r.get("rollouts") for r in runs]),
+        sr_before=_mean_std([r.get("sr_before") for r in runs]),
+        sr_after=_mean_std([r.get("sr_after") for r in runs]),
+        sr_after_episodes=n,
+        sr_after_wilson=f"[{lo:.3f}, {hi:.3f}]",
+        improvement_abs=_mean_std([r.get("improvement_abs") for r in runs]),
+        improvement_rel=_mean_std([r.get("improvement_rel") for r in runs]),
+        round_wall_s=_mean_std([r.get("round_wall_s") for r in runs]),
+      )
+    )
   md = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
   md += ["| " + " | ".join(str(r[h]) for h in header) + " |" for r in rows]
   buf = io.StringIO()

@@ -43,12 +43,22 @@ def decisions_fn(env: manipulation.ManipulationEnv, policy: Policy, strategy, nu
       state, hist, done, success, length, t = carry
       nxt = step(state, action)
       active = ~done
-      record = dict(obs=manipulation.policy_obs(state.obs), action=action, eef=nxt.obs["robot0_eef_pos"],
-                    qpos=state.pipeline_state.qpos)
+      record = dict(
+        obs=manipulation.policy_obs(state.obs),
+        action=action,
+        eef=nxt.obs["robot0_eef_pos"],
+        qpos=state.pipeline_state.qpos,
+      )
       succeeded = active & (nxt.metrics["success"] > 0)
       hist = jnp.concatenate([hist[:, 1:], manipulation.policy_obs(nxt.obs)[:, None]], axis=1)
-      carry = (nxt, hist, done | succeeded | (t + 1 >= horizon), success | succeeded,
-               length + active.astype(jnp.int32), t + 1)
+      carry = (
+        nxt,
+        hist,
+        done | succeeded | (t + 1 >= horizon),
+        success | succeeded,
+        length + active.astype(jnp.int32),
+        t + 1,
+      )
       return carry, record
 
     def decision(carry, _):
@@ -93,27 +103,61 @@ def _run_slice(env, policy, agent, strategy, reset_keys, key, decisions_per_call
   if pad:
     rec = {k: np.concatenate([v, np.repeat(v[:, -1:], pad, axis=1)], 1) for k, v in rec.items()}
   aux = {k: cat([a[k] for a in auxes]) for k in auxes[0]}
-  aux = {k: np.concatenate([v, np.zeros((v.shape[0], total - v.shape[1]) + v.shape[2:], v.dtype)], 1)
-         for k, v in aux.items()}  # decisions after the whole batch ended: zeros
+  aux = {
+    k: np.concatenate([v, np.zeros((v.shape[0], total - v.shape[1]) + v.shape[2:], v.dtype)], 1) for k, v in aux.items()
+  }  # decisions after the whole batch ended: zeros
   _, _, _, success, length, _ = jax.device_get(carry)
-  return dict(obs=rec["obs"], actions=rec["action"], qpos=rec["qpos"],
-              eef_pos=np.concatenate([start_eef[:, None], rec["eef"]], 1), length=np.asarray(length),
-              success=np.asarray(success), aux=aux)
+  return dict(
+    obs=rec["obs"],
+    actions=rec["action"],
+    qpos=rec["qpos"],
+    eef_pos=np.concatenate([start_eef[:, None], rec["eef"]], 1),
+    length=np.asarray(length),
+    success=np.asarray(success),
+    aux=aux,
+  )
 
 
-def rollout(env: manipulation.ManipulationEnv, policy: Policy, agent: Agent, strategy, reset_keys, key, *,
-            slice_size: int | None = None, decisions_per_call: int = 10, progress: bool = True,
-            desc: str = "rollout") -> dict:
+def rollout(
+  env: manipulation.ManipulationEnv,
+  policy: Policy,
+  agent: Agent,
+  strategy,
+  reset_keys,
+  key,
+  *,
+  slice_size: int | None = None,
+  decisions_per_call: int = 10,
+  progress: bool = True,
+  desc: str = "rollout",
+) -> dict:
   """Run one episode per start key in `reset_keys` (N, 2) with `strategy`; see the module docstring."""
   reset_keys = jnp.asarray(reset_keys)
   n = reset_keys.shape[0]
   size = min(slice_size or n, n)
   num_slices = -(-n // size)
   padded = jnp.concatenate([reset_keys, jnp.repeat(reset_keys[-1:], num_slices * size - n, axis=0)])
-  bar = tqdm.tqdm(total=num_slices * size * env.horizon, desc=desc, unit="env-step", unit_scale=True,
-                  disable=not progress, leave=False)
-  parts = [_run_slice(env, policy, agent, strategy, padded[s * size:(s + 1) * size], jax.random.fold_in(key, s),
-                      decisions_per_call, bar) for s in range(num_slices)]
+  bar = tqdm.tqdm(
+    total=num_slices * size * env.horizon,
+    desc=desc,
+    unit="env-step",
+    unit_scale=True,
+    disable=not progress,
+    leave=False,
+  )
+  parts = [
+    _run_slice(
+      env,
+      policy,
+      agent,
+      strategy,
+      padded[s * size : (s + 1) * size],
+      jax.random.fold_in(key, s),
+      decisions_per_call,
+      bar,
+    )
+    for s in range(num_slices)
+  ]
   bar.close()
   out = {k: np.concatenate([p[k] for p in parts], 0)[:n] for k in parts[0] if k != "aux"}
   out["aux"] = {k: np.concatenate([p["aux"][k] for p in parts], 0)[:n] for k in parts[0]["aux"]}

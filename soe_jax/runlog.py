@@ -10,9 +10,11 @@ import threading
 
 import jax
 
-
-_COMPILE_EVENTS = ("/jax/core/compile/jaxpr_trace_duration", "/jax/core/compile/jaxpr_to_mlir_module_duration",
-                   "/jax/core/compile/backend_compile_duration")
+_COMPILE_EVENTS = (
+  "/jax/core/compile/jaxpr_trace_duration",
+  "/jax/core/compile/jaxpr_to_mlir_module_duration",
+  "/jax/core/compile/backend_compile_duration",
+)
 
 
 class CompileTimer:
@@ -60,6 +62,7 @@ def read_metrics(workdir: str) -> list[dict]:
 class RunLog:
   def __init__(self, workdir: str):
     from tensorboardX import SummaryWriter
+
     self.path = os.path.join(workdir, "metrics.jsonl")
     self.writer = SummaryWriter(os.path.join(workdir, "tb"))
 
@@ -82,10 +85,14 @@ class RunLog:
 def summary_line(r: dict) -> str:
   parts = [f"round {r['round']} {r['phase']}:"]
   if r.get("success_rate") is not None:
-    parts.append(f"success {r['success_rate']:.1%} of {r['num_rollouts']} [{r['wilson_low']:.1%}, {r['wilson_high']:.1%}]")
+    parts.append(
+      f"success {r['success_rate']:.1%} of {r['num_rollouts']} [{r['wilson_low']:.1%}, {r['wilson_high']:.1%}]"
+    )
   if r.get("pass_at_k") is not None:
-    parts.append(f"Pass@{r['k']} {r['pass_at_k']:.1%}, rollouts {r['rollouts']} ({r['rollouts_mean']:.2f}/state), "
-                 f"jerk {r['jerk']:.1f} m/s^3, kept {r['num_episodes']}")
+    parts.append(
+      f"Pass@{r['k']} {r['pass_at_k']:.1%}, rollouts {r['rollouts']} ({r['rollouts_mean']:.2f}/state), "
+      f"jerk {r['jerk']:.1f} m/s^3, kept {r['num_episodes']}"
+    )
   if r.get("final_loss") is not None:
     parts.append(f"loss {r['final_loss']:.4f} after {r['steps']} steps on {r['num_episodes']} episodes")
   parts.append(f"({r['time_total_s']:.0f} s, compile {r['time_compile_s']:.0f} s)")

@@ -6,10 +6,16 @@ from __future__ import annotations
 import os
 
 import jax
-from jax.sharding import Mesh, NamedSharding, PartitionSpec as P
+from jax.sharding import Mesh, NamedSharding
+from jax.sharding import PartitionSpec as P
 
-_CLUSTER_VARS = ("JAX_COORDINATOR_ADDRESS", "COORDINATOR_ADDRESS", "SLURM_JOB_ID", "TPU_WORKER_HOSTNAMES",
-                 "OMPI_COMM_WORLD_SIZE")
+_CLUSTER_VARS = (
+  "JAX_COORDINATOR_ADDRESS",
+  "COORDINATOR_ADDRESS",
+  "SLURM_JOB_ID",
+  "TPU_WORKER_HOSTNAMES",
+  "OMPI_COMM_WORLD_SIZE",
+)
 _initialized = False
 
 

@@ -26,13 +26,15 @@ class TrainState:
     return self.ema_params if self.ema_params is not None else self.params
 
 
-def make_optimizer(fit: ml_collections.ConfigDict, total_steps: int,
-                   lr: float | None = None) -> optax.GradientTransformation:
+def make_optimizer(
+  fit: ml_collections.ConfigDict, total_steps: int, lr: float | None = None
+) -> optax.GradientTransformation:
   """AdamW(betas (0.95, 0.999), eps 1e-8, weight decay 1e-6 by default) with warm-up + cosine, peaking at
   `lr` (default `fit.lr`)."""
   peak = fit.lr if lr is None else lr
-  schedule = optax.warmup_cosine_decay_schedule(0.0, peak, min(fit.warmup_steps, max(total_steps - 1, 1)),
-                                                max(total_steps, 2), end_value=0.0)
+  schedule = optax.warmup_cosine_decay_schedule(
+    0.0, peak, min(fit.warmup_steps, max(total_steps - 1, 1)), max(total_steps, 2), end_value=0.0
+  )
   return optax.adamw(schedule, b1=fit.betas[0], b2=fit.betas[1], eps=fit.eps, weight_decay=fit.weight_decay)
 
 
@@ -48,6 +50,10 @@ def ema_update(ema: dict, params: dict, decay: jax.Array) -> dict:
 
 
 def create(params: dict, tx: optax.GradientTransformation, normalizer: Normalizer, ema: bool = True) -> TrainState:
-  return TrainState(step=jnp.zeros((), jnp.int32), params=params,
-                    ema_params=jax.tree.map(jnp.copy, params) if ema else None, opt_state=tx.init(params),
-                    normalizer=normalizer)
+  return TrainState(
+    step=jnp.zeros((), jnp.int32),
+    params=params,
+    ema_params=jax.tree.map(jnp.copy, params) if ema else None,
+    opt_state=tx.init(params),
+    normalizer=normalizer,
+  )

@@ -13,13 +13,14 @@ from soe_jax import compile_cache
 compile_cache.enable()
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _env(name: str, backend: str = "mujoco"):
   from soe_jax.envs import make_env
+
   return make_env(name, backend=backend)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _jitted(name: str, backend: str = "mujoco"):
   env = _env(name, backend)
   return env, jax.jit(env.reset), jax.jit(env.step)
@@ -36,6 +37,7 @@ def smoke_run(tmp_path_factory):
   """A finished two-round `lift:smoke,soe` run: (runs root, config, workdir, summary)."""
   from configs import lift as lift_config
   from soe_jax import loop
+
   root = tmp_path_factory.mktemp("runs")
   config = lift_config.get_config("smoke,soe")
   workdir = str(root / "lift-soe")

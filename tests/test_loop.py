@@ -25,7 +25,15 @@ def test_a_run_leaves_metrics_report_plots_and_data(smoke_run):
   root, config, workdir, summary = smoke_run
   lines = runlog.read_metrics(workdir)
   assert [(m["round"], m["phase"]) for m in lines] == [
-      (0, "fit"), (0, "evaluate"), (1, "explore"), (1, "fit"), (1, "evaluate"), (2, "explore"), (2, "fit"), (2, "evaluate")]
+    (0, "fit"),
+    (0, "evaluate"),
+    (1, "explore"),
+    (1, "fit"),
+    (1, "evaluate"),
+    (2, "explore"),
+    (2, "fit"),
+    (2, "evaluate"),
+  ]
   for m in lines:
     assert set(loop.LINE_KEYS) <= set(m)
     assert m["time_total_s"] >= m["time_compile_s"] >= 0
@@ -34,8 +42,15 @@ def test_a_run_leaves_metrics_report_plots_and_data(smoke_run):
   assert explore["k"] == config.explore.tries and 0 <= explore["pass_at_k"] <= 1
   assert config.explore.num_start_states <= explore["rollouts"] <= explore["num_rollouts"]
   assert lines[1]["num_rollouts"] == config.eval.num_start_states
-  for name in ("report.md", "success.png", "exploration.png", "seeds.json", "config.json", "data/round_1.hdf5",
-               "rounds/2/ckpt/config.json"):
+  for name in (
+    "report.md",
+    "success.png",
+    "exploration.png",
+    "seeds.json",
+    "config.json",
+    "data/round_1.hdf5",
+    "rounds/2/ckpt/config.json",
+  ):
     assert os.path.exists(os.path.join(workdir, name)), name
   assert any(f.startswith("events.out.tfevents") for f in os.listdir(os.path.join(workdir, "tb")))
   text = open(os.path.join(workdir, "report.md")).read()
@@ -65,19 +80,27 @@ def test_an_interrupted_run_resumes_to_the_same_numbers(smoke_run, monkeypatch):
   loop.run(config, other, progress=False)
   assert _numbers(other) == _numbers(workdir)
   ev = json.load(open(os.path.join(other, "rounds", "2", "evaluate.json")))
-  np.testing.assert_array_equal(ev["success"], json.load(open(os.path.join(workdir, "rounds", "2", "evaluate.json")))["success"])
+  np.testing.assert_array_equal(
+    ev["success"], json.load(open(os.path.join(workdir, "rounds", "2", "evaluate.json")))["success"]
+  )
 
 
 def test_a_continued_refit_runs_at_its_own_learning_rate(smoke_run):
   root, config, workdir, _ = smoke_run
   from soe_jax import checkpoint
+
   still = lift_config.get_config("smoke,soe")
   still.rounds.update(num_rounds=1, refit_lr=1e-30)  # reuses the fixture's round 0
   other = str(root / "lift-soe-still")
   loop.run(still, other, progress=False)
-  params = [checkpoint.load(os.path.join(d, "ckpt")).state.params
-            for d in (loop.round0_dir(config, workdir), os.path.join(other, "rounds", "1"),
-                      os.path.join(workdir, "rounds", "1"))]
+  params = [
+    checkpoint.load(os.path.join(d, "ckpt")).state.params
+    for d in (
+      loop.round0_dir(config, workdir),
+      os.path.join(other, "rounds", "1"),
+      os.path.join(workdir, "rounds", "1"),
+    )
+  ]
   for a, b in zip(jax.tree.leaves(params[0]), jax.tree.leaves(params[1])):
     np.testing.assert_allclose(a, b, atol=1e-12)  # a peak of 1e-30 leaves the round-0 parameters
   moved = [float(np.abs(a - b).max()) for a, b in zip(jax.tree.leaves(params[0]), jax.tree.leaves(params[2]))]
@@ -116,6 +139,7 @@ def test_aggregate_table_over_runs(smoke_run, tmp_path):
 def test_a_saved_checkpoint_rescored_gives_the_same_success(smoke_run):
   _, config, workdir, _ = smoke_run
   from soe_jax import checkpoint
+
   state = checkpoint.load(os.path.join(workdir, "rounds", "1", "ckpt")).state
   rescored = loop.Experiment(config, workdir, progress=False).evaluate(state, 1)
   saved = json.load(open(os.path.join(workdir, "rounds", "1", "evaluate.json")))
@@ -142,10 +166,12 @@ def test_the_cpu_preset_takes_the_tasks_own_demonstrations_and_steps():
 
 
 def test_unknown_names_are_refused_before_any_work(tmp_path):
-  for field, value, message in [("explore.strategy", "noise", "known strategies: none, sime"),
-                                ("rounds.select", "best", "known selections: first_success"),
-                                ("rounds.refit", "warm", "known: continue, scratch"),
-                                ("rounds.refit_lr", -1e-4, r"refit_lr must be >= 0")]:
+  for field, value, message in [
+    ("explore.strategy", "noise", "known strategies: none, sime"),
+    ("rounds.select", "best", "known selections: first_success"),
+    ("rounds.refit", "warm", "known: continue, scratch"),
+    ("rounds.refit_lr", -1e-4, r"refit_lr must be >= 0"),
+  ]:
     config = lift_config.get_config("smoke")
     section, name = field.split(".")
     config[section][name] = value

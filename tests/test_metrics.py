@@ -7,10 +7,15 @@ from soe_jax import metrics
 
 
 def test_pass_at_k_and_rollouts_on_outcome_tables():
-  table = np.array([[0, 0, 1, 0, 1],   # first success on try 3
-                    [1, 1, 1, 1, 1],   # on try 1
-                    [0, 0, 0, 0, 0],   # never: counts all 5 tries
-                    [0, 0, 0, 0, 1]], bool)
+  table = np.array(
+    [
+      [0, 0, 1, 0, 1],  # first success on try 3
+      [1, 1, 1, 1, 1],  # on try 1
+      [0, 0, 0, 0, 0],  # never: counts all 5 tries
+      [0, 0, 0, 0, 1],
+    ],
+    bool,
+  )
   assert metrics.pass_at_k(table) == 0.75
   r = metrics.rollouts(table)
   np.testing.assert_array_equal(r["per_state"], [3, 1, 5, 5])
@@ -32,12 +37,13 @@ def test_jerk_is_zero_for_a_quadratic_and_exact_for_a_cubic():
   t = np.arange(40) * metrics.CONTROL_DT
   quad = np.stack([3 * t**2 - t, 0.5 * t**2, np.ones_like(t)], -1)
   assert abs(metrics.episode_jerk(quad)) < 1e-6
-  cubic = np.stack([2 * t**3, -t**3, t**2], -1)  # third derivative (12, -6, 0): norm sqrt(180)
+  cubic = np.stack([2 * t**3, -(t**3), t**2], -1)  # third derivative (12, -6, 0): norm sqrt(180)
   np.testing.assert_allclose(metrics.episode_jerk(cubic), np.sqrt(180.0), rtol=1e-6)
   # Padding past an episode's length is ignored; episodes are averaged.
   padded = np.concatenate([cubic, np.full((10, 3), 99.0)])
-  np.testing.assert_allclose(metrics.average_jerk(np.stack([padded, np.concatenate([quad, quad[:10]])]), [40, 40]),
-                             np.sqrt(180.0) / 2, rtol=1e-6)
+  np.testing.assert_allclose(
+    metrics.average_jerk(np.stack([padded, np.concatenate([quad, quad[:10]])]), [40, 40]), np.sqrt(180.0) / 2, rtol=1e-6
+  )
 
 
 def test_relative_improvement_keeps_the_absolute_difference():
@@ -49,6 +55,7 @@ def test_relative_improvement_keeps_the_absolute_difference():
 
 def test_episode_selection_rules():
   from soe_jax.explore.select import select
+
   s = np.array([[0, 1, 1, 0, 0], [0, 0, 0, 0, 0], [1, 1, 1, 1, 0], [1, 0, 0, 0, 1]], bool)
   np.testing.assert_array_equal(select(s), [[0, 1, 0, 0, 0], [0] * 5, [1, 0, 0, 0, 0], [1, 0, 0, 0, 0]])
   np.testing.assert_array_equal(select(s, "all_successes"), s)

@@ -16,14 +16,15 @@ from soe_jax.explore import strategies
 from soe_jax.policies import normalizer as normalizer_lib
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _setup(horizon):
   env = make_env("lift", horizon=horizon)
   policy = checkpoint.policy_from_config(lift_config.get_config("smoke"))
   rng = np.random.default_rng(0)
   demo_like = rng.uniform(-0.2, 1.0, (100, policy.obs_dim))
-  actions = np.concatenate([rng.uniform(-0.1, 0.1, (100, 2)), rng.uniform(0.85, 1.0, (100, 1)),
-                            rng.uniform(-1, 1, (100, 7))], 1)
+  actions = np.concatenate(
+    [rng.uniform(-0.1, 0.1, (100, 2)), rng.uniform(0.85, 1.0, (100, 1)), rng.uniform(-1, 1, (100, 7))], 1
+  )
   agent = strategies.Agent(policy.init(jax.random.PRNGKey(0)), normalizer_lib.fit(demo_like, actions))
   return env, policy, agent
 
@@ -48,8 +49,9 @@ def test_rollouts_are_a_pure_function_of_the_keys():
 def test_records_history_horizon_and_slices():
   env, policy, agent = _setup(HORIZON)
   keys = jax.random.split(jax.random.PRNGKey(1), 4)
-  out = rollout.rollout(env, policy, agent, strategies.make_strategy("none"), keys, jax.random.PRNGKey(0),
-                        slice_size=2, progress=False)
+  out = rollout.rollout(
+    env, policy, agent, strategies.make_strategy("none"), keys, jax.random.PRNGKey(0), slice_size=2, progress=False
+  )
   assert out["obs"].shape == (4, HORIZON, policy.obs_dim) and out["actions"].shape == (4, HORIZON, 10)
   assert out["eef_pos"].shape == (4, HORIZON + 1, 3) and out["aux"] == {}
   np.testing.assert_array_equal(out["length"], HORIZON)  # an untrained policy does not lift the cube
@@ -68,8 +70,9 @@ def test_scripted_demonstrator_through_the_engine_reproduces_its_success_rate():
   env, policy, agent = _setup(400)
   keys = jax.random.split(jax.random.PRNGKey(7), 8)
   demos = run_demos(env, make_expert("lift"), keys, progress=False)
-  out = rollout.rollout(env, policy, agent, strategies.make_strategy("expert", env=env), keys,
-                        jax.random.PRNGKey(0), progress=False)
+  out = rollout.rollout(
+    env, policy, agent, strategies.make_strategy("expert", env=env), keys, jax.random.PRNGKey(0), progress=False
+  )
   assert abs(out["success"].mean() - demos["success"].mean()) <= 1 / 8
   assert out["success"].mean() >= 0.875
   ok = out["success"]

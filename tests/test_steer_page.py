@@ -12,14 +12,19 @@ import pytest
 
 CHROMIUM = "/usr/bin/chromium"
 # .ci/run installs both with apt-get; elsewhere the test says what is missing.
-pytestmark = pytest.mark.skipif(not os.path.exists(CHROMIUM) or not any(
-    os.path.exists(os.path.join(d, "libEGL_mesa.so.0")) for d in ("/usr/lib/x86_64-linux-gnu", "/usr/lib64", "/usr/lib")),
-    reason="needs Debian's chromium and Mesa's EGL: apt-get install chromium libegl1 libegl-mesa0 libgl1-mesa-dri")
+pytestmark = pytest.mark.skipif(
+  not os.path.exists(CHROMIUM)
+  or not any(
+    os.path.exists(os.path.join(d, "libEGL_mesa.so.0")) for d in ("/usr/lib/x86_64-linux-gnu", "/usr/lib64", "/usr/lib")
+  ),
+  reason="needs Debian's chromium and Mesa's EGL: apt-get install chromium libegl1 libegl-mesa0 libgl1-mesa-dri",
+)
 
 
 @pytest.fixture(scope="module")
 def page_server(smoke_run):
   from soe_jax.steer import server, session
+
   _, _, workdir, _ = smoke_run
   s = session.SteeringSession(workdir)
   httpd = server.serve(s, "127.0.0.1", 0)
@@ -44,6 +49,7 @@ def test_steer_a_proposal_and_save_it_from_the_browser(page_server):
 
   from soe_jax.data import hdf5
   from soe_jax.steer.session import steered_path
+
   url, session, workdir = page_server
   path = steered_path(workdir, session.round)
   assert not os.path.exists(path)
@@ -76,11 +82,13 @@ def test_steer_a_proposal_and_save_it_from_the_browser(page_server):
 def test_nonsense_requests_are_refused_and_change_nothing(page_server):
   url, session, workdir = page_server
   before = json.load(urllib.request.urlopen(url + "/api/state"))
-  for action, body, message in [("/api/execute", {"id": "7-7-7", "round": session.round}, "no proposals yet"),
-                                ("/api/proposals", {"dim": 999, "round": session.round}, "not an effective dimension"),
-                                ("/api/proposals", {"dim": session.dims[0], "round": session.round + 5}, "not round"),
-                                ("/api/save", {"round": session.round}, "nothing to save"),
-                                ("/api/launch", {}, "no action")]:
+  for action, body, message in [
+    ("/api/execute", {"id": "7-7-7", "round": session.round}, "no proposals yet"),
+    ("/api/proposals", {"dim": 999, "round": session.round}, "not an effective dimension"),
+    ("/api/proposals", {"dim": session.dims[0], "round": session.round + 5}, "not round"),
+    ("/api/save", {"round": session.round}, "nothing to save"),
+    ("/api/launch", {}, "no action"),
+  ]:
     code, data = _post(url + action, body)
     assert code in (400, 404) and message in data["error"], (action, data)
   code, data = _post(url + "/api/proposals", {"dim": session.dims[0], "round": session.round})

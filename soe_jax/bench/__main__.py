@@ -1,9 +1,9 @@
 """Benchmarks, each printing one JSON object as its last line.
 
-  python -m soe_jax.bench env --task=square --num_envs=256 [--backend=mujoco|mjx] [--num_envs=1 --unbatched]
-  python -m soe_jax.bench fit --config=configs/square.py [--bypass=on|off] [--ema=on|off]
-  python -m soe_jax.bench sample --config=configs/square.py --batch=1 --steps=10
-  python -m soe_jax.bench rollout --config=configs/lift.py:cpu --strategy=soe --num_envs=100
+python -m soe_jax.bench env --task=square --num_envs=256 [--backend=mujoco|mjx] [--num_envs=1 --unbatched]
+python -m soe_jax.bench fit --config=configs/square.py [--bypass=on|off] [--ema=on|off]
+python -m soe_jax.bench sample --config=configs/square.py --batch=1 --steps=10
+python -m soe_jax.bench rollout --config=configs/lift.py:cpu --strategy=soe --num_envs=100
 """
 
 from __future__ import annotations
@@ -17,15 +17,21 @@ flags.DEFINE_string("task", "lift", "Task name (env).")
 flags.DEFINE_integer("num_envs", 64, "Batch of environments (env).")
 flags.DEFINE_string("backend", "auto", "Physics backend: auto, mujoco or mjx (env).")
 flags.DEFINE_bool("unbatched", False, "env: one environment stepped without vmap.")
-flags.DEFINE_integer("steps", None, "env: control steps per compiled call (default 20 mujoco, 2 mjx); "
-                     "fit: SGD steps per timed chunk (default 10); sample: denoising steps (default 10); "
-                     "rollout: decisions per timed call (default 2).")
+flags.DEFINE_integer(
+  "steps",
+  None,
+  "env: control steps per compiled call (default 20 mujoco, 2 mjx); "
+  "fit: SGD steps per timed chunk (default 10); sample: denoising steps (default 10); "
+  "rollout: decisions per timed call (default 2).",
+)
 flags.DEFINE_integer("repeats", None, "Timed calls.")
 flags.DEFINE_enum("bypass", "off", ["on", "off"], "fit: train the VIB bypass too.")
 flags.DEFINE_enum("ema", "off", ["on", "off"], "fit: keep the EMA of parameters.")
 flags.DEFINE_integer("batch", 1, "sample: observations per chunk.")
 flags.DEFINE_string("strategy", "none", "rollout: exploration strategy (none, sime, soe, soe_steer, expert).")
-config_flags.DEFINE_config_file("config", None, "fit / sample / rollout: configs/<task>.py[:PRESETS].", lock_config=True)
+config_flags.DEFINE_config_file(
+  "config", None, "fit / sample / rollout: configs/<task>.py[:PRESETS].", lock_config=True
+)
 FLAGS = flags.FLAGS
 
 BENCHMARKS = ("env", "fit", "sample", "rollout")
@@ -35,6 +41,7 @@ def main(argv):
   if len(argv) != 2 or argv[1] not in BENCHMARKS:
     raise app.UsageError(f"usage: python -m soe_jax.bench <{'|'.join(BENCHMARKS)}> [flags]; got {argv[1:]}")
   from soe_jax import compile_cache, sharding
+
   compile_cache.enable()
   sharding.maybe_initialize_distributed()
   what = argv[1]
@@ -42,15 +49,19 @@ def main(argv):
     raise app.UsageError(f"bench {what} needs --config=configs/<task>.py[:PRESETS]")
   if what == "env":
     from soe_jax.bench import env
+
     result = env.run(FLAGS.task, FLAGS.num_envs, FLAGS.backend, FLAGS.steps, FLAGS.repeats or 3, FLAGS.unbatched)
   elif what == "fit":
     from soe_jax.bench import policy
+
     result = policy.fit(FLAGS.config, FLAGS.bypass == "on", FLAGS.ema == "on", FLAGS.steps or 10, FLAGS.repeats or 2)
   elif what == "rollout":
     from soe_jax.bench import rollout
+
     result = rollout.run(FLAGS.config, FLAGS.strategy, FLAGS.num_envs, FLAGS.steps or 2, FLAGS.repeats or 3)
   else:
     from soe_jax.bench import policy
+
     result = policy.sample(FLAGS.config, FLAGS.batch, FLAGS.steps or 10, FLAGS.repeats or 20)
   print(json.dumps(result))
 

@@ -25,8 +25,9 @@ def _motion(obs0, t):
   return jnp.concatenate([pos, rot6d, grip[None]])
 
 
-def run(task: str, num_envs: int, backend: str = "auto", steps: int | None = None, repeats: int = 3,
-        unbatched: bool = False) -> dict:
+def run(
+  task: str, num_envs: int, backend: str = "auto", steps: int | None = None, repeats: int = 3, unbatched: bool = False
+) -> dict:
   """`unbatched`: one environment stepped without `vmap` (MJX on a CPU is much slower under vmap)."""
   if unbatched and num_envs != 1:
     raise ValueError(f"unbatched runs one environment; got num_envs={num_envs}")
@@ -43,6 +44,7 @@ def run(task: str, num_envs: int, backend: str = "auto", steps: int | None = Non
   def chunk(state, t0):
     def body(s, t):
       return step(s, motion(obs0, t)), None
+
     state, _ = jax.lax.scan(body, state, t0 + jnp.arange(steps))
     return state
 
@@ -59,9 +61,15 @@ def run(task: str, num_envs: int, backend: str = "auto", steps: int | None = Non
   jax.block_until_ready(state)
   total = time.perf_counter() - t
   n = num_envs * steps * repeats
-  result = dict(task=task, num_envs=num_envs, backend=env.backend, unbatched=unbatched,
-                control_steps_per_s=round(n / total, 2),
-                physics_steps_per_s=round(n * env.config.nsubsteps / total, 1), compile_s=round(compile_s, 2))
+  result = dict(
+    task=task,
+    num_envs=num_envs,
+    backend=env.backend,
+    unbatched=unbatched,
+    control_steps_per_s=round(n / total, 2),
+    physics_steps_per_s=round(n * env.config.nsubsteps / total, 1),
+    compile_s=round(compile_s, 2),
+  )
   if env.backend == "mujoco" and not unbatched:
     result["split_s_per_1k_control_steps"] = _split(env, state, total, n, physics)
   return result
@@ -91,6 +99,11 @@ def _split(env, state, total, n, physics) -> dict:
   phys_s = physics.physics_seconds / n * 1000
   cb_s = (physics.callback_seconds - physics.physics_seconds) / n * 1000
   total_s = total / n * 1000
-  return dict(total=round(total_s, 4), physics=round(phys_s, 4), callback_overhead=round(cb_s, 4),
-              ik=round(ik_s, 4), observation=round(obs_s, 4),
-              other=round(total_s - phys_s - cb_s - ik_s - obs_s, 4))
+  return dict(
+    total=round(total_s, 4),
+    physics=round(phys_s, 4),
+    callback_overhead=round(cb_s, 4),
+    ik=round(ik_s, 4),
+    observation=round(obs_s, 4),
+    other=round(total_s - phys_s - cb_s - ik_s - obs_s, 4),
+  )

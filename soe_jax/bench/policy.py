@@ -14,9 +14,8 @@ import ml_collections
 import numpy as np
 
 from soe_jax import buffer as buffer_lib
-from soe_jax import checkpoint
+from soe_jax import checkpoint, train_state
 from soe_jax import fit as fit_lib
-from soe_jax import train_state
 from soe_jax.policies import normalizer as normalizer_lib
 
 
@@ -31,8 +30,9 @@ def _random_setup(config, key):
   n, length = 64, 120
   obs = rng.uniform(-1, 1, (n, length, obs_dim)).astype(np.float32)
   actions = rng.uniform(-1, 1, (n, length, action_dim)).astype(np.float32)
-  buf = buffer_lib.add(buffer_lib.create(n, length, obs_dim, action_dim), obs, actions, np.full(n, length),
-                       np.ones(n, bool), 0)
+  buf = buffer_lib.add(
+    buffer_lib.create(n, length, obs_dim, action_dim), obs, actions, np.full(n, length), np.ones(n, bool), 0
+  )
   norm = normalizer_lib.fit(obs.reshape(-1, obs_dim), actions.reshape(-1, action_dim))
   return policy, policy.init(key), buf, norm
 
@@ -52,11 +52,20 @@ def fit(config: ml_collections.ConfigDict, bypass: bool, ema: bool, steps: int =
     state, _ = fit_lib.fit(policy, tx, state, buf, jax.random.PRNGKey(2 + r), steps, fit_cfg, progress=False)
   jax.block_until_ready(state.params)
   per_step = (time.perf_counter() - t) / (steps * repeats)
-  return dict(bench="fit", task=config.env.task, head=config.policy.head.name,
-              down_dims=list(config.policy.head.kwargs.get("down_dims", [])), batch_size=config.fit.batch_size,
-              bypass=bypass, ema=ema, ms_per_step=round(per_step * 1000, 2),
-              samples_per_s=round(config.fit.batch_size / per_step, 1), params=_param_count(state.params),
-              first_chunk_s=round(compile_and_first, 2), devices=jax.device_count())
+  return dict(
+    bench="fit",
+    task=config.env.task,
+    head=config.policy.head.name,
+    down_dims=list(config.policy.head.kwargs.get("down_dims", [])),
+    batch_size=config.fit.batch_size,
+    bypass=bypass,
+    ema=ema,
+    ms_per_step=round(per_step * 1000, 2),
+    samples_per_s=round(config.fit.batch_size / per_step, 1),
+    params=_param_count(state.params),
+    first_chunk_s=round(compile_and_first, 2),
+    devices=jax.device_count(),
+  )
 
 
 def sample(config: ml_collections.ConfigDict, batch: int, steps: int, repeats: int = 20) -> dict:
@@ -74,7 +83,14 @@ def sample(config: ml_collections.ConfigDict, batch: int, steps: int, repeats: i
     t = time.perf_counter()
     jax.block_until_ready(fn(params, obs, jax.random.PRNGKey(r)))
     times.append(time.perf_counter() - t)
-  return dict(bench="sample", task=config.env.task, head=config.policy.head.name,
-              down_dims=list(config.policy.head.kwargs.get("down_dims", [])), batch=batch, steps=steps,
-              ms_per_chunk=round(float(np.median(times)) * 1000, 2), params=_param_count(params["head"]),
-              compile_s=round(compile_s, 2))
+  return dict(
+    bench="sample",
+    task=config.env.task,
+    head=config.policy.head.name,
+    down_dims=list(config.policy.head.kwargs.get("down_dims", [])),
+    batch=batch,
+    steps=steps,
+    ms_per_chunk=round(float(np.median(times)) * 1000, 2),
+    params=_param_count(params["head"]),
+    compile_s=round(compile_s, 2),
+  )

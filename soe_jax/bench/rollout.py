@@ -47,9 +47,17 @@ def run(config: ml_collections.ConfigDict, strategy: str, num_envs: int, decisio
     times.append(time.perf_counter() - t)
   per_call = float(np.median(times))
   steps = num_envs * decisions * policy.n_action_steps
-  return dict(bench="rollout", task=env.name, backend=env.backend, strategy=strategy, num_envs=num_envs,
-              head=config.policy.head.name, down_dims=list(config.policy.head.kwargs.get("down_dims", [])),
-              steer_dims=len(dims) if strategy == "soe_steer" else 0,
-              proposals=steer.num_proposals if strategy == "soe_steer" else 0,
-              env_steps_per_s=round(steps / per_call, 1), ms_per_chunk=round(1000 * per_call / decisions, 1),
-              first_call_s=round(first, 1))
+  return dict(
+    bench="rollout",
+    task=env.name,
+    backend=env.backend,
+    strategy=strategy,
+    num_envs=num_envs,
+    head=config.policy.head.name,
+    down_dims=list(config.policy.head.kwargs.get("down_dims", [])),
+    steer_dims=len(dims) if strategy == "soe_steer" else 0,
+    proposals=steer.num_proposals if strategy == "soe_steer" else 0,
+    env_steps_per_s=round(steps / per_call, 1),
+    ms_per_chunk=round(1000 * per_call / decisions, 1),
+    first_call_s=round(first, 1),
+  )

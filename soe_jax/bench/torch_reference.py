@@ -55,12 +55,19 @@ def build(torch, nn, down_dims, dsed, input_dim=10, cond_dim=46, k=5, groups=8):
       c = dsed + cond_dim
       dims = [input_dim] + list(down_dims)
       pairs = list(zip(dims[:-1], dims[1:]))
-      self.down = nn.ModuleList([nn.ModuleList([Res(i, o, c), Res(o, o, c),
-                                                nn.Conv1d(o, o, 3, 2, 1) if n < len(pairs) - 1 else nn.Identity()])
-                                 for n, (i, o) in enumerate(pairs)])
+      self.down = nn.ModuleList(
+        [
+          nn.ModuleList([Res(i, o, c), Res(o, o, c), nn.Conv1d(o, o, 3, 2, 1) if n < len(pairs) - 1 else nn.Identity()])
+          for n, (i, o) in enumerate(pairs)
+        ]
+      )
       self.mid = nn.ModuleList([Res(dims[-1], dims[-1], c), Res(dims[-1], dims[-1], c)])
-      self.up = nn.ModuleList([nn.ModuleList([Res(2 * o, i, c), Res(i, i, c), nn.ConvTranspose1d(i, i, 4, 2, 1)])
-                               for i, o in reversed(pairs[1:])])
+      self.up = nn.ModuleList(
+        [
+          nn.ModuleList([Res(2 * o, i, c), Res(i, i, c), nn.ConvTranspose1d(i, i, 4, 2, 1)])
+          for i, o in reversed(pairs[1:])
+        ]
+      )
       self.final = nn.Sequential(Block(down_dims[0], down_dims[0]), nn.Conv1d(down_dims[0], input_dim, 1))
 
     def forward(self, x, t, g):
@@ -87,6 +94,7 @@ def main(argv):
   del argv
   import torch
   from torch import nn
+
   torch.set_num_threads(FLAGS.threads)
   dims = [int(d) for d in FLAGS.down_dims]
   net = build(torch, nn, dims, FLAGS.step_embed_dim)
@@ -110,8 +118,15 @@ def main(argv):
     fit_step()
   fit_s = (time.perf_counter() - start) / FLAGS.steps
 
-  betas = [min(1 - math.cos(((i + 1) / 100 + 0.008) / 1.008 * math.pi / 2) ** 2 /
-               math.cos((i / 100 + 0.008) / 1.008 * math.pi / 2) ** 2, 0.999) for i in range(100)]
+  betas = [
+    min(
+      1
+      - math.cos(((i + 1) / 100 + 0.008) / 1.008 * math.pi / 2) ** 2
+      / math.cos((i / 100 + 0.008) / 1.008 * math.pi / 2) ** 2,
+      0.999,
+    )
+    for i in range(100)
+  ]
   ac = torch.cumprod(1 - torch.tensor(betas), 0)
 
   @torch.no_grad()
@@ -133,9 +148,20 @@ def main(argv):
     sample()
     times.append(time.perf_counter() - start)
   times.sort()
-  print(json.dumps(dict(bench="torch_reference", torch=torch.__version__, threads=FLAGS.threads, down_dims=dims,
-                        batch=b, params=params, fit_ms_per_step=round(fit_s * 1000, 1),
-                        ddim10_ms_per_chunk=round(times[len(times) // 2] * 1000, 2))))
+  print(
+    json.dumps(
+      dict(
+        bench="torch_reference",
+        torch=torch.__version__,
+        threads=FLAGS.threads,
+        down_dims=dims,
+        batch=b,
+        params=params,
+        fit_ms_per_step=round(fit_s * 1000, 1),
+        ddim10_ms_per_chunk=round(times[len(times) // 2] * 1000, 2),
+      )
+    )
+  )
 
 
 if __name__ == "__main__":

@@ -41,15 +41,21 @@ def over_target(pos: jax.Array) -> jax.Array:
 
 def _bin_mjcf(name: str, center, dividers: bool) -> str:
   x, y, z = center
-  geoms = [("floor", (0.2, 0.25, 0.02), (0, 0, 0)),
-           ("wall_n", (0.21, 0.01, 0.05), (0, 0.25, 0.05)), ("wall_s", (0.21, 0.01, 0.05), (0, -0.25, 0.05)),
-           ("wall_e", (0.01, 0.25, 0.05), (0.2, 0, 0.05)), ("wall_w", (0.01, 0.25, 0.05), (-0.2, 0, 0.05))]
+  geoms = [
+    ("floor", (0.2, 0.25, 0.02), (0, 0, 0)),
+    ("wall_n", (0.21, 0.01, 0.05), (0, 0.25, 0.05)),
+    ("wall_s", (0.21, 0.01, 0.05), (0, -0.25, 0.05)),
+    ("wall_e", (0.01, 0.25, 0.05), (0.2, 0, 0.05)),
+    ("wall_w", (0.01, 0.25, 0.05), (-0.2, 0, 0.05)),
+  ]
   if dividers:
     geoms += [("div_x", (0.2, 0.01, 0.05), (0, 0, 0.05)), ("div_y", (0.01, 0.25, 0.05), (0, 0, 0.05))]
   out = [f'<body name="{name}" pos="{x} {y} {z}">']
   for g, size, pos in geoms:
-    out.append(f'<geom name="{name}_{g}" type="box" size="{manipulation.np_fmt(size)}" pos="{manipulation.np_fmt(pos)}" '
-               f'friction="1 0.005 0.0001" {panda.FIXTURE_COLLISION} rgba="0.55 0.4 0.3 1"/>')
+    out.append(
+      f'<geom name="{name}_{g}" type="box" size="{manipulation.np_fmt(size)}" pos="{manipulation.np_fmt(pos)}" '
+      f'friction="1 0.005 0.0001" {panda.FIXTURE_COLLISION} rgba="0.55 0.4 0.3 1"/>'
+    )
   out.append("</body>")
   return "\n".join(out)
 
@@ -88,7 +94,7 @@ class Can(manipulation.ManipulationEnv):
     return jnp.concatenate([pos, manipulation.canonical_quat_xyzw(quat), rel_pos, rel_quat])
 
   def _success(self, qpos, eef_pos):
-    pos = qpos[OBJECT_QPOS:OBJECT_QPOS + 3]
+    pos = qpos[OBJECT_QPOS : OBJECT_QPOS + 3]
     inside = over_target(pos) & (pos[2] > 0.8) & (pos[2] < 0.9)
     released = jnp.linalg.norm(eef_pos - pos) > RELEASE_DISTANCE
     return inside & released

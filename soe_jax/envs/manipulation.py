@@ -32,12 +32,14 @@ AGENTVIEW = dict(pos="0.5 0 1.35", quat="0.653 0.271 0.271 0.653")
 
 def base_config() -> ml_collections.ConfigDict:
   """Fields every task shares; task modules extend it in their `default_config()`."""
-  return ml_collections.ConfigDict(dict(
+  return ml_collections.ConfigDict(
+    dict(
       backend="auto",  # auto | mujoco | mjx
       action_mode="absolute",  # absolute (10-d) | delta (7-d)
       nsubsteps=25,  # physics substeps per 20 Hz control step
       horizon=400,  # robomimic's evaluation horizon for lift / can / square
-  ))
+    )
+  )
 
 
 def policy_obs(obs: dict) -> jax.Array:
@@ -95,7 +97,7 @@ class ManipulationEnv(Env):
   <worldbody>
     <light pos="0 0 3" dir="0 0 -1" directional="true"/>
     <geom name="floor" type="plane" size="3 3 0.1" {panda.FIXTURE_COLLISION} rgba="0.6 0.6 0.6 1"/>
-    <camera name="agentview" pos="{cam['pos']}" quat="{cam['quat']}" fovy="45"/>
+    <camera name="agentview" pos="{cam["pos"]}" quat="{cam["quat"]}" fovy="45"/>
     {panda.robot_mjcf(self.base_pos)}
     {self._scene_mjcf()}
   </worldbody>
@@ -129,13 +131,14 @@ class ManipulationEnv(Env):
     ps = self.physics.init(qpos, jnp.zeros(self.mj_model.nv, jnp.float32))
     obs, success = self._observe(ps)
     zero = jnp.zeros(())
-    return State(pipeline_state=ps, obs=obs, reward=zero, done=zero, metrics={"success": success},
-                 info={"rng": rng})
+    return State(pipeline_state=ps, obs=obs, reward=zero, done=zero, metrics={"success": success}, info={"rng": rng})
 
   def step(self, state: State, action: jax.Array) -> State:
     if action.shape != (self.action_size,):
-      raise ValueError(f"{self.name}: expected an action of shape ({self.action_size},) for action mode "
-                       f"{self.action_mode!r}, got {tuple(action.shape)}")
+      raise ValueError(
+        f"{self.name}: expected an action of shape ({self.action_size},) for action mode "
+        f"{self.action_mode!r}, got {tuple(action.shape)}"
+      )
     ps = state.pipeline_state
     ctrl = controller.joint_controls(self.kin, self.action_mode, action, ps.qpos[:7])
     ps = self.physics.step(ps, ctrl)
@@ -152,12 +155,12 @@ class ManipulationEnv(Env):
     fk = self.kin.forward(qpos[:7])
     hand_quat = rotations.wxyz_to_xyzw(rotations.mat_to_quat_wxyz(fk["hand_rot"]))
     obs = {
-        "robot0_eef_pos": fk["site_pos"],
-        "robot0_eef_quat": hand_quat,
-        "robot0_gripper_qpos": qpos[7:9],
-        "object": self._object_obs(qpos, fk["site_pos"], fk["hand_rot"]),
-        "robot0_joint_pos": qpos[:7],
-        "robot0_eef_rot": fk["site_rot"].reshape(9),
+      "robot0_eef_pos": fk["site_pos"],
+      "robot0_eef_quat": hand_quat,
+      "robot0_gripper_qpos": qpos[7:9],
+      "object": self._object_obs(qpos, fk["site_pos"], fk["hand_rot"]),
+      "robot0_joint_pos": qpos[:7],
+      "robot0_eef_rot": fk["site_rot"].reshape(9),
     }
     return obs, self._success(qpos, fk["site_pos"]).astype(jnp.float32)
 
@@ -165,7 +168,7 @@ class ManipulationEnv(Env):
 # -- helpers shared by the task modules ---------------------------------------------------------
 def free_body_pose(qpos: jax.Array, start: int):
   """(pos (3,), quat wxyz (4,)) of a free joint whose qpos starts at `start`."""
-  return qpos[start:start + 3], qpos[start + 3:start + 7]
+  return qpos[start : start + 3], qpos[start + 3 : start + 7]
 
 
 def pose_in_eef(obj_pos, obj_quat_wxyz, eef_pos, hand_rot):

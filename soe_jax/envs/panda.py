@@ -18,20 +18,54 @@ from soe_jax.envs import rotations
 
 _S = math.sqrt(0.5)
 # (pos, quat wxyz) of link1..link7 relative to the parent body; every joint turns about local z.
-LINK_POS = np.array([
-    [0, 0, 0.333], [0, 0, 0], [0, -0.316, 0], [0.0825, 0, 0], [-0.0825, 0.384, 0], [0, 0, 0], [0.088, 0, 0],
-], np.float32)
-LINK_QUAT = np.array([
-    [1, 0, 0, 0], [_S, -_S, 0, 0], [_S, _S, 0, 0], [_S, _S, 0, 0], [_S, -_S, 0, 0], [_S, _S, 0, 0], [_S, _S, 0, 0],
-], np.float32)
+LINK_POS = np.array(
+  [
+    [0, 0, 0.333],
+    [0, 0, 0],
+    [0, -0.316, 0],
+    [0.0825, 0, 0],
+    [-0.0825, 0.384, 0],
+    [0, 0, 0],
+    [0.088, 0, 0],
+  ],
+  np.float32,
+)
+LINK_QUAT = np.array(
+  [
+    [1, 0, 0, 0],
+    [_S, -_S, 0, 0],
+    [_S, _S, 0, 0],
+    [_S, _S, 0, 0],
+    [_S, -_S, 0, 0],
+    [_S, _S, 0, 0],
+    [_S, _S, 0, 0],
+  ],
+  np.float32,
+)
 LINK_MASS = [4.0, 3.0, 3.0, 2.0, 2.0, 2.0, 1.5, 0.5]  # link0..link7
-LINK_COM = [(0, 0, 0.05), (0, 0, -0.07), (0, -0.1, 0), (0.04, 0, -0.05), (-0.04, 0.05, 0), (0, 0, -0.15),
-            (0.06, 0, 0), (0, 0, 0.08)]
+LINK_COM = [
+  (0, 0, 0.05),
+  (0, 0, -0.07),
+  (0, -0.1, 0),
+  (0.04, 0, -0.05),
+  (-0.04, 0.05, 0),
+  (0, 0, -0.15),
+  (0.06, 0, 0),
+  (0, 0, 0.08),
+]
 LINK_INERTIA = [0.4, 0.3, 0.3, 0.2, 0.2, 0.2, 0.1, 0.05]
-JOINT_RANGE = np.array([
-    [-2.8973, 2.8973], [-1.7628, 1.7628], [-2.8973, 2.8973], [-3.0718, -0.0698],
-    [-2.8973, 2.8973], [-0.0175, 3.7525], [-2.8973, 2.8973],
-], np.float32)
+JOINT_RANGE = np.array(
+  [
+    [-2.8973, 2.8973],
+    [-1.7628, 1.7628],
+    [-2.8973, 2.8973],
+    [-3.0718, -0.0698],
+    [-2.8973, 2.8973],
+    [-0.0175, 3.7525],
+    [-2.8973, 2.8973],
+  ],
+  np.float32,
+)
 TORQUE_LIMIT = np.array([80, 80, 80, 80, 80, 12, 12], np.float32)
 ARMATURE = [5.0 / (i + 1) for i in range(7)]
 DAMPING = [0.1] * 5 + [0.01] * 2
@@ -73,27 +107,42 @@ def _fmt(v) -> str:
 def robot_mjcf(base_pos) -> str:
   """MJCF for the arm, hand and fingers, to be placed in `<worldbody>`, base at `base_pos`."""
   link_vis = [  # fromto capsules from each link origin towards the next joint, for rendering only
-      "0 0 0 0 0 0.333", "0 0 -0.05 0 0 0.05", "0 0 0 0 -0.316 0", "0 0 0 0.0825 0 0",
-      "0 0 0 -0.0825 0.384 0", "0 0 -0.1 0 0 0.05", "0 0 0 0.088 0 0", "0 0 0 0 0 0.1065"]
-  xml = [f'<body name="link0" pos="{_fmt(base_pos)}">',
-         f'<inertial pos="{_fmt(LINK_COM[0])}" mass="{LINK_MASS[0]}" diaginertia="{_fmt([LINK_INERTIA[0]] * 3)}"/>',
-         f'<geom type="capsule" size="0.06" fromto="{link_vis[0]}" {VISUAL} rgba="1 1 1 1"/>',
-         '<geom type="cylinder" size="0.18 0.31" pos="0 0 -0.6" ' + VISUAL + ' rgba="0.2 0.2 0.2 1"/>']
+    "0 0 0 0 0 0.333",
+    "0 0 -0.05 0 0 0.05",
+    "0 0 0 0 -0.316 0",
+    "0 0 0 0.0825 0 0",
+    "0 0 0 -0.0825 0.384 0",
+    "0 0 -0.1 0 0 0.05",
+    "0 0 0 0.088 0 0",
+    "0 0 0 0 0 0.1065",
+  ]
+  xml = [
+    f'<body name="link0" pos="{_fmt(base_pos)}">',
+    f'<inertial pos="{_fmt(LINK_COM[0])}" mass="{LINK_MASS[0]}" diaginertia="{_fmt([LINK_INERTIA[0]] * 3)}"/>',
+    f'<geom type="capsule" size="0.06" fromto="{link_vis[0]}" {VISUAL} rgba="1 1 1 1"/>',
+    '<geom type="cylinder" size="0.18 0.31" pos="0 0 -0.6" ' + VISUAL + ' rgba="0.2 0.2 0.2 1"/>',
+  ]
   for i in range(7):
     lo, hi = JOINT_RANGE[i]
     xml.append(f'<body name="link{i + 1}" pos="{_fmt(LINK_POS[i])}" quat="{_fmt(LINK_QUAT[i])}" gravcomp="1">')
-    xml.append(f'<inertial pos="{_fmt(LINK_COM[i + 1])}" mass="{LINK_MASS[i + 1]}" '
-               f'diaginertia="{_fmt([LINK_INERTIA[i + 1]] * 3)}"/>')
-    xml.append(f'<joint name="joint{i + 1}" type="hinge" axis="0 0 1" range="{lo} {hi}" '
-               f'damping="{DAMPING[i]}" armature="{ARMATURE[i]:.6g}" frictionloss="0.1"/>')
+    xml.append(
+      f'<inertial pos="{_fmt(LINK_COM[i + 1])}" mass="{LINK_MASS[i + 1]}" '
+      f'diaginertia="{_fmt([LINK_INERTIA[i + 1]] * 3)}"/>'
+    )
+    xml.append(
+      f'<joint name="joint{i + 1}" type="hinge" axis="0 0 1" range="{lo} {hi}" '
+      f'damping="{DAMPING[i]}" armature="{ARMATURE[i]:.6g}" frictionloss="0.1"/>'
+    )
     xml.append(f'<geom type="capsule" size="0.05" fromto="{link_vis[i + 1]}" {VISUAL} rgba="1 1 1 1"/>')
   xml.append(f'<body name="right_hand" pos="{_fmt(HAND_POS)}" quat="{_fmt(HAND_QUAT)}" gravcomp="1">')
   xml.append('<inertial pos="0 0 0" mass="0.5" diaginertia="0.05 0.05 0.05"/>')
   xml.append(f'<body name="right_gripper" quat="{_fmt(GRIPPER_QUAT)}" gravcomp="1">')
   xml.append('<inertial pos="0 0 0.04" mass="0.3" diaginertia="0.001 0.001 0.001"/>')
   # Palm: its bottom face sits 31 mm behind the grip site, along the approach axis (local z).
-  xml.append(f'<geom name="hand" type="box" size="0.03 0.1 0.0225" pos="0 0 0.0435" {GRIPPER_COLLISION} '
-             'friction="1 0.005 0.0001" rgba="0.9 0.9 0.9 1"/>')
+  xml.append(
+    f'<geom name="hand" type="box" size="0.03 0.1 0.0225" pos="0 0 0.0435" {GRIPPER_COLLISION} '
+    'friction="1 0.005 0.0001" rgba="0.9 0.9 0.9 1"/>'
+  )
   xml.append(f'<site name="grip_site" pos="{_fmt(GRIP_SITE_POS)}" size="0.005" rgba="1 0 0 0.5" group="2"/>')
   # The finger bodies are turned back +90 deg, so they slide along the hand's y axis, which is
   # the grip site's x axis (the closing axis).
@@ -101,17 +150,23 @@ def robot_mjcf(base_pos) -> str:
     lo, hi = (0.0, FINGER_TRAVEL) if sign > 0 else (-FINGER_TRAVEL, 0.0)
     xml.append(f'<body name="{side}" pos="0 0 {FINGER_Z}" quat="{_fmt([_S, 0, 0, _S])}" gravcomp="1">')
     xml.append('<inertial pos="0 0 0.03" mass="0.1" diaginertia="0.0001 0.0001 0.0001"/>')
-    xml.append(f'<joint name="{side}_joint" type="slide" axis="0 1 0" range="{lo} {hi}" damping="100" '
-               'armature="1.0" frictionloss="1.0"/>')
+    xml.append(
+      f'<joint name="{side}_joint" type="slide" axis="0 1 0" range="{lo} {hi}" damping="100" '
+      'armature="1.0" frictionloss="1.0"/>'
+    )
     # Finger body behind the pad (outer side) and the pad whose inner face is at y = 0 of the body.
-    xml.append(f'<geom type="box" size="0.009 0.007 0.02" pos="0 {sign * 0.012} 0.034" {GRIPPER_COLLISION} '
-               'friction="1 0.005 0.0001" rgba="0.9 0.9 0.9 1"/>')
-    xml.append(f'<geom name="{side}_pad" type="box" size="0.008 0.004 0.008" pos="0 {sign * 0.004} 0.0446" '
-               f'{GRIPPER_COLLISION} condim="4" friction="2 0.05 0.0001" solref="0.01 0.5" rgba="0.3 0.3 0.3 1"/>')
-    xml.append('</body>')
-  xml.append('</body></body>')
-  xml.append('</body>' * 7)
-  xml.append('</body>')
+    xml.append(
+      f'<geom type="box" size="0.009 0.007 0.02" pos="0 {sign * 0.012} 0.034" {GRIPPER_COLLISION} '
+      'friction="1 0.005 0.0001" rgba="0.9 0.9 0.9 1"/>'
+    )
+    xml.append(
+      f'<geom name="{side}_pad" type="box" size="0.008 0.004 0.008" pos="0 {sign * 0.004} 0.0446" '
+      f'{GRIPPER_COLLISION} condim="4" friction="2 0.05 0.0001" solref="0.01 0.5" rgba="0.3 0.3 0.3 1"/>'
+    )
+    xml.append("</body>")
+  xml.append("</body></body>")
+  xml.append("</body>" * 7)
+  xml.append("</body>")
   return "\n".join(xml)
 
 
@@ -120,12 +175,18 @@ def robot_actuators_mjcf() -> str:
   xml = []
   for i in range(7):
     lo, hi = JOINT_RANGE[i]
-    xml.append(f'<position name="act{i + 1}" joint="joint{i + 1}" kp="{SERVO_KP[i]:.6g}" kv="{SERVO_KV[i]:.6g}" '
-               f'ctrlrange="{lo} {hi}" forcerange="{-TORQUE_LIMIT[i]} {TORQUE_LIMIT[i]}"/>')
-  xml.append(f'<position name="act_finger1" joint="finger1_joint" kp="{FINGER_KP}" ctrlrange="0 {FINGER_TRAVEL}" '
-             f'forcerange="{-FINGER_FORCE} {FINGER_FORCE}"/>')
-  xml.append(f'<position name="act_finger2" joint="finger2_joint" kp="{FINGER_KP}" ctrlrange="{-FINGER_TRAVEL} 0" '
-             f'forcerange="{-FINGER_FORCE} {FINGER_FORCE}"/>')
+    xml.append(
+      f'<position name="act{i + 1}" joint="joint{i + 1}" kp="{SERVO_KP[i]:.6g}" kv="{SERVO_KV[i]:.6g}" '
+      f'ctrlrange="{lo} {hi}" forcerange="{-TORQUE_LIMIT[i]} {TORQUE_LIMIT[i]}"/>'
+    )
+  xml.append(
+    f'<position name="act_finger1" joint="finger1_joint" kp="{FINGER_KP}" ctrlrange="0 {FINGER_TRAVEL}" '
+    f'forcerange="{-FINGER_FORCE} {FINGER_FORCE}"/>'
+  )
+  xml.append(
+    f'<position name="act_finger2" joint="finger2_joint" kp="{FINGER_KP}" ctrlrange="{-FINGER_TRAVEL} 0" '
+    f'forcerange="{-FINGER_FORCE} {FINGER_FORCE}"/>'
+  )
   return "\n".join(xml)
 
 

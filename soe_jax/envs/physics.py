@@ -30,6 +30,7 @@ BACKENDS = ("auto", "mujoco", "mjx")
 @struct.dataclass
 class PhysicsState:
   """What the shared JAX code reads (float32 qpos, qvel) plus the backend's own state in `raw`."""
+
   qpos: jax.Array  # (nq,)
   qvel: jax.Array  # (nv,)
   raw: object  # mjx.Data, or (2 * nstate,) uint32 bytes of MuJoCo's float64 full physics state
@@ -56,6 +57,7 @@ class MjxBackend:
 
   def __init__(self, model: mujoco.MjModel, nsubsteps: int):
     from mujoco import mjx  # imported lazily: it is heavy and only this backend needs it
+
     self._mjx = mjx
     self.model = model
     self.nsubsteps = nsubsteps
@@ -83,6 +85,7 @@ class MujocoBackend:
 
   def __init__(self, model: mujoco.MjModel, nsubsteps: int, nthread: int | None = None):
     from mujoco import rollout
+
     self.model = model
     self.nsubsteps = nsubsteps
     self.nthread = nthread or os.cpu_count() or 1
@@ -123,15 +126,26 @@ class MujocoBackend:
     warm = np.zeros((n, self.model.nv), np.float64)  # a fixed warm start keeps results thread-independent
     t1 = time.perf_counter()
     with self._lock:
-      self._rollout.rollout([self.model] * n, self._datas, s0, u, initial_warmstart=warm, state=out,
-                            nstep=self.nsubsteps, skip_checks=True, sensordata=np.empty((n, self.nsubsteps, 0)),
-                            chunk_size=max(1, n // (4 * self.nthread)))
+      self._rollout.rollout(
+        [self.model] * n,
+        self._datas,
+        s0,
+        u,
+        initial_warmstart=warm,
+        state=out,
+        nstep=self.nsubsteps,
+        skip_checks=True,
+        sensordata=np.empty((n, self.nsubsteps, 0)),
+        chunk_size=max(1, n // (4 * self.nthread)),
+      )
     t2 = time.perf_counter()
     self._check_instabilities()
     s1 = np.ascontiguousarray(out[:, -1])
-    result = (s1.view(np.uint32).reshape(batch + (2 * self.nstate,)),
-              s1[:, self._qpos].astype(np.float32).reshape(batch + (self.model.nq,)),
-              s1[:, self._qvel].astype(np.float32).reshape(batch + (self.model.nv,)))
+    result = (
+      s1.view(np.uint32).reshape(batch + (2 * self.nstate,)),
+      s1[:, self._qpos].astype(np.float32).reshape(batch + (self.model.nq,)),
+      s1[:, self._qvel].astype(np.float32).reshape(batch + (self.model.nv,)),
+    )
     self.physics_seconds += t2 - t1
     self.callback_seconds += time.perf_counter() - t0
     return result
@@ -140,8 +154,11 @@ class MujocoBackend:
     bad = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQPOS)
     total = sum(int(d.warning[w].number) for d in self._datas for w in bad)
     if total > self.instabilities:
-      logging.warning("MuJoCo: %d physics instabilities (NaN/Inf or huge values) so far; the affected "
-                      "environments were reset by the engine", total)
+      logging.warning(
+        "MuJoCo: %d physics instabilities (NaN/Inf or huge values) so far; the affected "
+        "environments were reset by the engine",
+        total,
+      )
       self.instabilities = total
 
   # -- traced side ----------------------------------------------------------------------------
@@ -152,11 +169,14 @@ class MujocoBackend:
 
   def step(self, state: PhysicsState, ctrl: jax.Array) -> PhysicsState:
     batch = state.raw.shape[:-1]
-    shapes = (jax.ShapeDtypeStruct(batch + (2 * self.nstate,), jnp.uint32),
-              jax.ShapeDtypeStruct(batch + (self.model.nq,), jnp.float32),
-              jax.ShapeDtypeStruct(batch + (self.model.nv,), jnp.float32))
-    bits, qpos, qvel = jax.pure_callback(self._host_step, shapes, state.raw, ctrl.astype(jnp.float32),
-                                         vmap_method="broadcast_all")
+    shapes = (
+      jax.ShapeDtypeStruct(batch + (2 * self.nstate,), jnp.uint32),
+      jax.ShapeDtypeStruct(batch + (self.model.nq,), jnp.float32),
+      jax.ShapeDtypeStruct(batch + (self.model.nv,), jnp.float32),
+    )
+    bits, qpos, qvel = jax.pure_callback(
+      self._host_step, shapes, state.raw, ctrl.astype(jnp.float32), vmap_method="broadcast_all"
+    )
     return PhysicsState(qpos=qpos, qvel=qvel, raw=bits)
 
   def float64_state(self, state: PhysicsState) -> np.ndarray:

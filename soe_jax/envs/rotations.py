@@ -14,11 +14,14 @@ def quat_wxyz_to_mat(q: jnp.ndarray) -> jnp.ndarray:
   """(..., 4) wxyz unit quaternion -> (..., 3, 3) rotation matrix."""
   q = q / jnp.linalg.norm(q, axis=-1, keepdims=True)
   w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-  return jnp.stack([
+  return jnp.stack(
+    [
       jnp.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
       jnp.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
       jnp.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-  ], -2)
+    ],
+    -2,
+  )
 
 
 def mat_to_quat_wxyz(m: jnp.ndarray) -> jnp.ndarray:
@@ -29,12 +32,21 @@ def mat_to_quat_wxyz(m: jnp.ndarray) -> jnp.ndarray:
   """
   m00, m11, m22 = m[..., 0, 0], m[..., 1, 1], m[..., 2, 2]
   tr = m00 + m11 + m22
-  cands = jnp.stack([
+  cands = jnp.stack(
+    [
       jnp.stack([1 + tr, m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1]], -1),
-      jnp.stack([m[..., 2, 1] - m[..., 1, 2], 1 + m00 - m11 - m22, m[..., 0, 1] + m[..., 1, 0], m[..., 0, 2] + m[..., 2, 0]], -1),
-      jnp.stack([m[..., 0, 2] - m[..., 2, 0], m[..., 0, 1] + m[..., 1, 0], 1 - m00 + m11 - m22, m[..., 1, 2] + m[..., 2, 1]], -1),
-      jnp.stack([m[..., 1, 0] - m[..., 0, 1], m[..., 0, 2] + m[..., 2, 0], m[..., 1, 2] + m[..., 2, 1], 1 - m00 - m11 + m22], -1),
-  ], -2)
+      jnp.stack(
+        [m[..., 2, 1] - m[..., 1, 2], 1 + m00 - m11 - m22, m[..., 0, 1] + m[..., 1, 0], m[..., 0, 2] + m[..., 2, 0]], -1
+      ),
+      jnp.stack(
+        [m[..., 0, 2] - m[..., 2, 0], m[..., 0, 1] + m[..., 1, 0], 1 - m00 + m11 - m22, m[..., 1, 2] + m[..., 2, 1]], -1
+      ),
+      jnp.stack(
+        [m[..., 1, 0] - m[..., 0, 1], m[..., 0, 2] + m[..., 2, 0], m[..., 1, 2] + m[..., 2, 1], 1 - m00 - m11 + m22], -1
+      ),
+    ],
+    -2,
+  )
   pivots = jnp.stack([1 + tr, 1 + m00 - m11 - m22, 1 - m00 + m11 - m22, 1 - m00 - m11 + m22], -1)
   best = jnp.argmax(pivots, axis=-1)
   q = jnp.take_along_axis(cands, best[..., None, None], axis=-2)[..., 0, :]
@@ -54,12 +66,15 @@ def quat_mul_wxyz(a: jnp.ndarray, b: jnp.ndarray) -> jnp.ndarray:
   """Hamilton product a * b of wxyz quaternions."""
   aw, ax, ay, az = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
   bw, bx, by, bz = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
-  return jnp.stack([
+  return jnp.stack(
+    [
       aw * bw - ax * bx - ay * by - az * bz,
       aw * bx + ax * bw + ay * bz - az * by,
       aw * by - ax * bz + ay * bw + az * bx,
       aw * bz + ax * by - ay * bx + az * bw,
-  ], -1)
+    ],
+    -1,
+  )
 
 
 def yaw_quat_wxyz(yaw: jnp.ndarray) -> jnp.ndarray:

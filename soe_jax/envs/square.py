@@ -39,13 +39,18 @@ class Square(manipulation.ManipulationEnv):
     return manipulation.prism_mesh("round_peg_mesh", 0.02, PEG_HALF_HEIGHT)
 
   def _scene_mjcf(self) -> str:
-    bars = [((0.0105, 0.04375, 0.01), (0.03325, 0, 0)), ((0.0105, 0.04375, 0.01), (-0.03325, 0, 0)),
-            ((0.03125, 0.0105, 0.01), (0, 0.03325, 0)), ((0.03125, 0.0105, 0.01), (0, -0.03325, 0)),
-            ((0.02525, HANDLE_HALF_WIDTH, 0.01), (HANDLE_OFFSET, 0, 0))]
+    bars = [
+      ((0.0105, 0.04375, 0.01), (0.03325, 0, 0)),
+      ((0.0105, 0.04375, 0.01), (-0.03325, 0, 0)),
+      ((0.03125, 0.0105, 0.01), (0, 0.03325, 0)),
+      ((0.03125, 0.0105, 0.01), (0, -0.03325, 0)),
+      ((0.02525, HANDLE_HALF_WIDTH, 0.01), (HANDLE_OFFSET, 0, 0)),
+    ]
     nut = "\n".join(
-        f'<geom type="box" size="{manipulation.np_fmt(s)}" pos="{manipulation.np_fmt(p)}" density="100" condim="4" '
-        f'friction="0.95 0.3 0.1" solimp="0.998 0.998 0.001" {panda.OBJECT_COLLISION} rgba="0.6 0.5 0.2 1"/>'
-        for s, p in bars)
+      f'<geom type="box" size="{manipulation.np_fmt(s)}" pos="{manipulation.np_fmt(p)}" density="100" condim="4" '
+      f'friction="0.95 0.3 0.1" solimp="0.998 0.998 0.001" {panda.OBJECT_COLLISION} rgba="0.6 0.5 0.2 1"/>'
+      for s, p in bars
+    )
     (sx, sy), (rx, ry) = SQUARE_PEG, ROUND_PEG
     return f"""
     <geom name="table" type="box" size="0.4 0.4 0.025" pos="0 0 {TABLE_TOP - 0.025}" {panda.FIXTURE_COLLISION}
@@ -72,7 +77,9 @@ class Square(manipulation.ManipulationEnv):
     return jnp.concatenate([pos, manipulation.canonical_quat_xyzw(quat), rel_pos, rel_quat])
 
   def _success(self, qpos, eef_pos):
-    pos = qpos[OBJECT_QPOS:OBJECT_QPOS + 3]
-    on_peg = (jnp.abs(pos[0] - SQUARE_PEG[0]) < 0.03) & (jnp.abs(pos[1] - SQUARE_PEG[1]) < 0.03) & (pos[2] < TABLE_TOP + 0.05)
+    pos = qpos[OBJECT_QPOS : OBJECT_QPOS + 3]
+    on_peg = (
+      (jnp.abs(pos[0] - SQUARE_PEG[0]) < 0.03) & (jnp.abs(pos[1] - SQUARE_PEG[1]) < 0.03) & (pos[2] < TABLE_TOP + 0.05)
+    )
     released = jnp.linalg.norm(eef_pos - pos) > RELEASE_DISTANCE
     return on_peg & released

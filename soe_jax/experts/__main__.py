@@ -24,6 +24,7 @@ FLAGS = flags.FLAGS
 def main(argv):
   del argv
   from soe_jax import compile_cache
+
   compile_cache.enable()
   import jax
 
@@ -38,13 +39,21 @@ def main(argv):
   keys = jax.random.split(jax.random.PRNGKey(FLAGS.seed), FLAGS.num_episodes)
   batch = collect.run_demos(env, expert, keys)
   success = batch["success"]
-  result = dict(task=FLAGS.task, num_episodes=int(FLAGS.num_episodes), success_rate=float(success.mean()),
-                mean_length=float(batch["length"][success].mean()) if success.any() else None,
-                backend=env.backend, seconds=round(time.time() - start, 2))
+  result = dict(
+    task=FLAGS.task,
+    num_episodes=int(FLAGS.num_episodes),
+    success_rate=float(success.mean()),
+    mean_length=float(batch["length"][success].mean()) if success.any() else None,
+    backend=env.backend,
+    seconds=round(time.time() - start, 2),
+  )
   if FLAGS.out:
     episodes = collect.split_episodes(batch)
-    hdf5.write_episodes(FLAGS.out, episodes, env_args=dict(env_name=FLAGS.task, env_kwargs=env.config.to_dict(),
-                                                           type="soe_jax", seed=FLAGS.seed))
+    hdf5.write_episodes(
+      FLAGS.out,
+      episodes,
+      env_args=dict(env_name=FLAGS.task, env_kwargs=env.config.to_dict(), type="soe_jax", seed=FLAGS.seed),
+    )
     result["out"] = FLAGS.out
     result["num_saved"] = len(episodes)
   print(json.dumps(result))

@@ -18,10 +18,16 @@ PLACE_XY = (0.155, 0.338)
 
 def sample_params(key):
   k = jax.random.split(key, 8)
-  return dict(speed=uniform(k[0], 0.011, 0.018), settle=jax.random.randint(k[1], (), 2, 8),
-              height=uniform(k[2], 0.97, 1.02), offset=uniform(k[3], -0.004, 0.004, (2,)),
-              grasp_dz=uniform(k[4], 0.012, 0.020), close=jax.random.randint(k[5], (), 5, 10),
-              place=uniform(k[6], -0.01, 0.01, (2,)), yaw=uniform(k[7], -0.3, 0.3))
+  return dict(
+    speed=uniform(k[0], 0.011, 0.018),
+    settle=jax.random.randint(k[1], (), 2, 8),
+    height=uniform(k[2], 0.97, 1.02),
+    offset=uniform(k[3], -0.004, 0.004, (2,)),
+    grasp_dz=uniform(k[4], 0.012, 0.020),
+    close=jax.random.randint(k[5], (), 5, 10),
+    place=uniform(k[6], -0.01, 0.01, (2,)),
+    yaw=uniform(k[7], -0.3, 0.3),
+  )
 
 
 def settle(obs, p, cmd_pos, cmd_yaw):
@@ -76,5 +82,8 @@ def resume(obs):
   return jnp.where(holding, carried, free)
 
 
-EXPERT = script.ScriptedExpert(plans=(settle, above, descend, close, lift, carry, lower, release, retreat),
-                               sample_params=sample_params, resume=resume)
+EXPERT = script.ScriptedExpert(
+  plans=(settle, above, descend, close, lift, carry, lower, release, retreat),
+  sample_params=sample_params,
+  resume=resume,
+)

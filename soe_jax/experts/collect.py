@@ -37,8 +37,13 @@ def _chunk_fn(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, 
   return run
 
 
-def run_demos(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, keys: jax.Array,
-              chunk: int = 50, progress: bool = True) -> dict:
+def run_demos(
+  env: manipulation.ManipulationEnv,
+  expert: script.ScriptedExpert,
+  keys: jax.Array,
+  chunk: int = 50,
+  progress: bool = True,
+) -> dict:
   """Demonstrations from the start states of `keys` (N, 2), each until success or the horizon.
 
   Returns numpy arrays: `obs` {key: (N, T, d)}, `actions` (N, T, 10), `states` (N, T, nq) scene joint
@@ -63,12 +68,11 @@ def run_demos(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, 
     if bool(jax.device_get(carry[2]).all()):
       break
   bar.close()
-  obs = {k: np.concatenate([r[0][k] for r in records], 0).swapaxes(0, 1)[:, :env.horizon] for k in RECORDED_KEYS}
-  actions = np.concatenate([r[1] for r in records], 0).swapaxes(0, 1)[:, :env.horizon]
-  states = np.concatenate([r[3] for r in records], 0).swapaxes(0, 1)[:, :env.horizon]
+  obs = {k: np.concatenate([r[0][k] for r in records], 0).swapaxes(0, 1)[:, : env.horizon] for k in RECORDED_KEYS}
+  actions = np.concatenate([r[1] for r in records], 0).swapaxes(0, 1)[:, : env.horizon]
+  states = np.concatenate([r[3] for r in records], 0).swapaxes(0, 1)[:, : env.horizon]
   done, length = jax.device_get(carry[2:])
-  return dict(obs=obs, actions=actions, states=states, length=np.minimum(length, env.horizon),
-              success=np.asarray(done))
+  return dict(obs=obs, actions=actions, states=states, length=np.minimum(length, env.horizon), success=np.asarray(done))
 
 
 def split_episodes(batch: dict, only_successful: bool = True) -> list[dict]:
@@ -78,6 +82,12 @@ def split_episodes(batch: dict, only_successful: bool = True) -> list[dict]:
     if only_successful and not batch["success"][i]:
       continue
     t = int(batch["length"][i])
-    episodes.append(dict(obs={k: v[i, :t] for k, v in batch["obs"].items()}, actions=batch["actions"][i, :t],
-                         states=batch["states"][i, :t], success=bool(batch["success"][i])))
+    episodes.append(
+      dict(
+        obs={k: v[i, :t] for k, v in batch["obs"].items()},
+        actions=batch["actions"][i, :t],
+        states=batch["states"][i, :t],
+        success=bool(batch["success"][i]),
+      )
+    )
   return episodes

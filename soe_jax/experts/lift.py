@@ -12,10 +12,15 @@ from soe_jax.experts.script import target, uniform
 
 def sample_params(key):
   k = jax.random.split(key, 7)
-  return dict(speed=uniform(k[0], 0.009, 0.016), settle=jax.random.randint(k[1], (), 2, 8),
-              height=uniform(k[2], 0.05, 0.10), offset=uniform(k[3], -0.004, 0.004, (2,)),
-              grasp_dz=uniform(k[4], -0.004, 0.004), close=jax.random.randint(k[5], (), 5, 10),
-              yaw=uniform(k[6], -0.12, 0.12))
+  return dict(
+    speed=uniform(k[0], 0.009, 0.016),
+    settle=jax.random.randint(k[1], (), 2, 8),
+    height=uniform(k[2], 0.05, 0.10),
+    offset=uniform(k[3], -0.004, 0.004, (2,)),
+    grasp_dz=uniform(k[4], -0.004, 0.004),
+    close=jax.random.randint(k[5], (), 5, 10),
+    yaw=uniform(k[6], -0.12, 0.12),
+  )
 
 
 def _cube(obs):
@@ -58,5 +63,4 @@ def resume(obs):
   return jnp.where(script.gripping(obs, cube, lift_task.CUBE_HALF), 4, jnp.where(over, 2, 1))
 
 
-EXPERT = script.ScriptedExpert(plans=(settle, above, descend, close, lift), sample_params=sample_params,
-                               resume=resume)
+EXPERT = script.ScriptedExpert(plans=(settle, above, descend, close, lift), sample_params=sample_params, resume=resume)

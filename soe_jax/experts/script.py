@@ -18,7 +18,8 @@ yaw, gripper.
 from __future__ import annotations
 
 import dataclasses
-from typing import Callable, NamedTuple, Sequence
+from collections.abc import Callable, Sequence
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -86,6 +87,7 @@ def min_jerk(tau: jax.Array) -> jax.Array:
 class ScriptedExpert:
   """`plans[i](obs, params, cmd_pos, cmd_yaw) -> Target`; `sample_params(key) -> dict`;
   `resume(obs) -> phase index` to start from in the scene `obs` shows."""
+
   plans: Sequence[Callable[..., Target]]
   sample_params: Callable[[jax.Array], dict]
   resume: Callable[[dict], jax.Array]
@@ -98,9 +100,19 @@ class ScriptedExpert:
     pos, yaw = obs["robot0_eef_pos"], site_yaw(obs)
     zero_t = Target(pos, yaw, jnp.array(-1.0), jnp.array(0.01), jnp.array(0), jnp.array(0.01))
     phase = jnp.asarray(self.resume(obs), jnp.int32) if resume else jnp.array(0)
-    return ExpertState(phase=phase, t=jnp.array(0), start_pos=pos, start_yaw=yaw, target=zero_t,
-                       duration=jnp.array(1), cmd_pos=pos, cmd_yaw=yaw, noise=jnp.zeros(3),
-                       params=self.sample_params(key_params), key=key)
+    return ExpertState(
+      phase=phase,
+      t=jnp.array(0),
+      start_pos=pos,
+      start_yaw=yaw,
+      target=zero_t,
+      duration=jnp.array(1),
+      cmd_pos=pos,
+      cmd_yaw=yaw,
+      noise=jnp.zeros(3),
+      params=self.sample_params(key_params),
+      key=key,
+    )
 
   def act(self, es: ExpertState, obs: dict):
     """-> (action (10,), next ExpertState)."""
@@ -124,9 +136,18 @@ class ScriptedExpert:
     scheduled = elapsed >= duration + target.hold
     arrived = jnp.linalg.norm(obs["robot0_eef_pos"] - target.pos) < target.tol
     advance = scheduled & (arrived | (elapsed >= duration + target.hold + TIMEOUT)) & (es.phase < last)
-    nxt = es.replace(phase=jnp.where(advance, es.phase + 1, es.phase), t=jnp.where(advance, 0, elapsed),
-                     start_pos=start_pos, start_yaw=start_yaw, target=target, duration=duration,
-                     cmd_pos=cmd_pos, cmd_yaw=cmd_yaw, noise=noise, key=key)
+    nxt = es.replace(
+      phase=jnp.where(advance, es.phase + 1, es.phase),
+      t=jnp.where(advance, 0, elapsed),
+      start_pos=start_pos,
+      start_yaw=start_yaw,
+      target=target,
+      duration=duration,
+      cmd_pos=cmd_pos,
+      cmd_yaw=cmd_yaw,
+      noise=noise,
+      key=key,
+    )
     return action, nxt
 
 
@@ -148,4 +169,3 @@ def gripping(obs: dict, grip_pos: jax.Array, half_width: float, z_tol: float = 0
   eef = obs["robot0_eef_pos"]
   closed = obs["robot0_gripper_qpos"][0] < half_width + 0.004
   return near_xy(eef, grip_pos, 0.015) & (jnp.abs(eef[2] - grip_pos[2]) < z_tol) & closed
-

@@ -17,10 +17,15 @@ PEG_TOP = 0.95
 
 def sample_params(key):
   k = jax.random.split(key, 7)
-  return dict(speed=uniform(k[0], 0.010, 0.016), settle=jax.random.randint(k[1], (), 6, 12),
-              height=uniform(k[2], 0.05, 0.09), along=uniform(k[3], 0.004, 0.012),
-              grasp_dz=uniform(k[4], 0.003, 0.008), close=jax.random.randint(k[5], (), 5, 10),
-              yaw=uniform(k[6], -0.1, 0.1))
+  return dict(
+    speed=uniform(k[0], 0.010, 0.016),
+    settle=jax.random.randint(k[1], (), 6, 12),
+    height=uniform(k[2], 0.05, 0.09),
+    along=uniform(k[3], 0.004, 0.012),
+    grasp_dz=uniform(k[4], 0.003, 0.008),
+    close=jax.random.randint(k[5], (), 5, 10),
+    yaw=uniform(k[6], -0.1, 0.1),
+  )
 
 
 def _nut(obs):
@@ -112,5 +117,8 @@ def resume(obs):
   return jnp.where(holding, carried, free)
 
 
-EXPERT = script.ScriptedExpert(plans=(settle, above, descend, close, lift, carry, align, insert, release, retreat),
-                               sample_params=sample_params, resume=resume)
+EXPERT = script.ScriptedExpert(
+  plans=(settle, above, descend, close, lift, carry, align, insert, release, retreat),
+  sample_params=sample_params,
+  resume=resume,
+)

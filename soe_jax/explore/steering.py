@@ -27,8 +27,9 @@ def effective_dims(snr: jax.Array, threshold_db: float = 0.0) -> jax.Array:
   return snr > threshold_db
 
 
-def dimension_proposals(mu: jax.Array, log_std: jax.Array, dim: int | jax.Array, key: jax.Array, num: int,
-                        alpha: float = 1.0) -> jax.Array:
+def dimension_proposals(
+  mu: jax.Array, log_std: jax.Array, dim: int | jax.Array, key: jax.Array, num: int, alpha: float = 1.0
+) -> jax.Array:
   """mu, log_std (d,) for one observation -> (num, d) latents varying only dimension `dim`."""
   z = jnp.broadcast_to(mu, (num,) + mu.shape)
   sample = mu[dim] + alpha * jnp.exp(log_std[dim]) * jax.random.normal(key, (num,))

@@ -22,7 +22,7 @@ engine never knows which strategy runs.
 from __future__ import annotations
 
 import dataclasses
-from typing import Callable
+from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
@@ -40,18 +40,19 @@ from soe_jax.policies.policy import Policy
 @struct.dataclass
 class Agent:
   """What a strategy samples with: evaluation (EMA) parameters and the normaliser."""
+
   params: dict
   normalizer: Normalizer
 
   @classmethod
-  def from_state(cls, state) -> "Agent":
+  def from_state(cls, state) -> Agent:
     return cls(params=state.eval_params, normalizer=state.normalizer)
 
 
 def executed(policy: Policy, chunk: jax.Array) -> jax.Array:
   """The Ta actions of a predicted chunk (B, T, A) that run open loop: chunk[:, To-1 : To-1+Ta]."""
   start = policy.n_obs_steps - 1
-  return chunk[:, start:start + policy.n_action_steps]
+  return chunk[:, start : start + policy.n_action_steps]
 
 
 def base_chunk(policy: Policy, agent: Agent, obs_history, key, cond_fn=None) -> jax.Array:
@@ -87,8 +88,10 @@ def sime_cond_fn(policy: Policy, normalizer: Normalizer, scale: float, tau1: flo
   observation units; the low-dim conditioning is normalised, so each dimension's noise is scaled by
   that dimension's normalisation scale (d c = scale * d o), the same physical perturbation."""
   if policy.cond_dim != policy.n_obs_steps * policy.obs_dim:
-    raise ValueError("sime perturbs the low-dim conditioning; this policy's encoder gives "
-                     f"{policy.cond_dim} features for {policy.n_obs_steps} x {policy.obs_dim} observations")
+    raise ValueError(
+      "sime perturbs the low-dim conditioning; this policy's encoder gives "
+      f"{policy.cond_dim} features for {policy.n_obs_steps} x {policy.obs_dim} observations"
+    )
   per_dim = jnp.tile(normalizer.obs_scale, policy.n_obs_steps)
 
   def cond_fn(cond, step_index, key):
@@ -155,6 +158,7 @@ class Expert:
 class ScriptedChooser:
   """DESIGN.md's oracle chooser: the proposal whose end-effector path (its commanded positions) is
   closest in mean L2 distance to the scripted demonstrator's next positions from the current state."""
+
   env: manipulation.ManipulationEnv
   expert: script.ScriptedExpert
 
@@ -165,8 +169,16 @@ class ScriptedChooser:
     return jnp.argmin(dist, axis=1), jnp.min(dist, axis=1)
 
 
-def steering_candidates(policy: Policy, agent: Agent, obs_history, key, dims: tuple[int, ...], alpha: float,
-                        num_proposals: int, num_choices: int):
+def steering_candidates(
+  policy: Policy,
+  agent: Agent,
+  obs_history,
+  key,
+  dims: tuple[int, ...],
+  alpha: float,
+  num_proposals: int,
+  num_choices: int,
+):
   """For each latent dimension in `dims`: `num_proposals` latents varying only that dimension around mu,
   decoded to executed chunks, and `num_choices` of them picked by farthest point sampling over their
   end-effector paths. -> (candidates (B, len(dims) * num_choices, Ta, A) raw, dim of each candidate)."""
@@ -177,7 +189,8 @@ def steering_candidates(policy: Policy, agent: Agent, obs_history, key, dims: tu
   for j, dim in enumerate(dims):
     key_z, key_head = jax.random.split(jax.random.fold_in(key, j))
     z = jax.vmap(lambda m, s, k: steering.dimension_proposals(m, s, dim, k, num_proposals, alpha))(
-        mu, log_std, jax.random.split(key_z, b))
+      mu, log_std, jax.random.split(key_z, b)
+    )
     cond = policy.decode_latent(agent.params, z.reshape(b * num_proposals, d))
     actions, _ = policy.head.sample(agent.params["head"], cond, key_head)
     chunks = executed(policy, norm.unnormalize_actions(actions))
@@ -192,6 +205,7 @@ def steering_candidates(policy: Policy, agent: Agent, obs_history, key, dims: tu
 class Steer:
   """Steering along `dims` (the effective latent dimensions, from `steering.snr_db` over the data) with
   a chooser, at every `every`-th decision of an episode; the base path in between."""
+
   chooser: Callable
   dims: tuple[int, ...]
   alpha: float = 2.0
@@ -209,8 +223,9 @@ class Steer:
       return base_chunk(policy, agent, obs_history, key_base), jnp.full(b, -1, jnp.int32), jnp.zeros(b)
 
     def steer(_):
-      cands, dim_of = steering_candidates(policy, agent, obs_history, key_steer, self.dims, self.alpha,
-                                          self.num_proposals, self.num_choices)
+      cands, dim_of = steering_candidates(
+        policy, agent, obs_history, key_steer, self.dims, self.alpha, self.num_proposals, self.num_choices
+      )
       index, dist = self.chooser(cands, env_state, key_choose)
       return jnp.take_along_axis(cands, index[:, None, None, None], axis=1)[:, 0], dim_of[index], dist
 
@@ -233,8 +248,13 @@ def check_name(name: str) -> None:
     raise ValueError(f"unknown exploration strategy {name!r}; known strategies: {', '.join(STRATEGIES)}")
 
 
-def make_strategy(name: str, config: ml_collections.ConfigDict | None = None, *,
-                  env: manipulation.ManipulationEnv | None = None, dims: tuple[int, ...] = ()):
+def make_strategy(
+  name: str,
+  config: ml_collections.ConfigDict | None = None,
+  *,
+  env: manipulation.ManipulationEnv | None = None,
+  dims: tuple[int, ...] = (),
+):
   """Strategy `name` with settings from `config` (an `explore` config section: alpha, sime.{scale,
   tau1, tau2}, steer.{num_proposals, num_choices, every}). `soe_steer` and `expert` need the task's
   `env`; `soe_steer` also the effective latent dimensions `dims`."""
@@ -254,6 +274,11 @@ def make_strategy(name: str, config: ml_collections.ConfigDict | None = None, *,
   if name == "expert":
     return Expert(env, expert)
   s = c.get("steer", {})
-  return Steer(chooser=ScriptedChooser(env, expert), dims=tuple(int(d) for d in dims),
-               alpha=float(c.get("alpha", 2.0)), num_proposals=int(s.get("num_proposals", 32)),
-               num_choices=int(s.get("num_choices", 5)), every=int(s.get("every", 1)))
+  return Steer(
+    chooser=ScriptedChooser(env, expert),
+    dims=tuple(int(d) for d in dims),
+    alpha=float(c.get("alpha", 2.0)),
+    num_proposals=int(s.get("num_proposals", 32)),
+    num_choices=int(s.get("num_choices", 5)),
+    every=int(s.get("every", 1)),
+  )

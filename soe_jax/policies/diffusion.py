@@ -10,7 +10,7 @@ is the noise predictor with `t` of shape (B,). Every sampler takes an optional c
 from __future__ import annotations
 
 import math
-from typing import Callable, Optional
+from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
@@ -34,22 +34,26 @@ class Schedule:
   num_train_timesteps: int = struct.field(pytree_node=False, default=100)
 
   @classmethod
-  def create(cls, num_train_timesteps: int = 100) -> "Schedule":
+  def create(cls, num_train_timesteps: int = 100) -> Schedule:
     betas = squaredcos_cap_v2(num_train_timesteps)
-    return cls(betas=jnp.asarray(betas, jnp.float32), alphas_cumprod=jnp.asarray(np.cumprod(1 - betas), jnp.float32),
-               num_train_timesteps=num_train_timesteps)
+    return cls(
+      betas=jnp.asarray(betas, jnp.float32),
+      alphas_cumprod=jnp.asarray(np.cumprod(1 - betas), jnp.float32),
+      num_train_timesteps=num_train_timesteps,
+    )
 
   def add_noise(self, x0: jax.Array, eps: jax.Array, t: jax.Array) -> jax.Array:
     ab = self.alphas_cumprod[t].reshape(t.shape + (1,) * (x0.ndim - t.ndim))
     return jnp.sqrt(ab) * x0 + jnp.sqrt(1 - ab) * eps
 
 
-def _apply(cond_fn: Optional[CondFn], cond, i, key):
+def _apply(cond_fn: CondFn | None, cond, i, key):
   return cond if cond_fn is None else cond_fn(cond, i, key)
 
 
-def ddpm_sample(denoise, schedule: Schedule, cond, shape, key, cond_fn: Optional[CondFn] = None,
-                clip: bool = True) -> jax.Array:
+def ddpm_sample(
+  denoise, schedule: Schedule, cond, shape, key, cond_fn: CondFn | None = None, clip: bool = True
+) -> jax.Array:
   """All training timesteps, T-1 .. 0 (diffusers DDPMScheduler, fixed_small)."""
   key_init, key_loop = jax.random.split(key)
   x = jax.random.normal(key_init, shape)
@@ -79,8 +83,17 @@ def ddim_timesteps(num_train_timesteps: int, num_steps: int) -> np.ndarray:
   return (np.arange(num_steps) * (num_train_timesteps // num_steps))[::-1].astype(np.int32)
 
 
-def ddim_sample(denoise, schedule: Schedule, cond, shape, key, num_steps: int = 10, eta: float = 0.0,
-                cond_fn: Optional[CondFn] = None, clip: bool = True) -> jax.Array:
+def ddim_sample(
+  denoise,
+  schedule: Schedule,
+  cond,
+  shape,
+  key,
+  num_steps: int = 10,
+  eta: float = 0.0,
+  cond_fn: CondFn | None = None,
+  clip: bool = True,
+) -> jax.Array:
   """diffusers DDIMScheduler.step with set_alpha_to_one: x0 clipped, the direction uses the raw eps."""
   key_init, key_loop = jax.random.split(key)
   x = jax.random.normal(key_init, shape)

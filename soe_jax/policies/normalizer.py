@@ -48,7 +48,9 @@ def _limits(x: np.ndarray, margin: float):
   return scale.astype(np.float32), offset.astype(np.float32)
 
 
-def fit(obs: np.ndarray, actions: np.ndarray, margin: float = 0.1, identity_action_dims: slice | None = None) -> Normalizer:
+def fit(
+  obs: np.ndarray, actions: np.ndarray, margin: float = 0.1, identity_action_dims: slice | None = None
+) -> Normalizer:
   """From all demonstration frames: obs (N, D), actions (N, A). `identity_action_dims` defaults to
   everything after the 3 position dims (rotation-6d and gripper of the absolute action)."""
   obs_scale, obs_offset = _limits(np.asarray(obs, np.float64), margin)

@@ -45,8 +45,10 @@ class Policy:
 
   def init(self, key) -> dict:
     k_enc, k_head, k_p, k_q = jax.random.split(key, 4)
-    params = {"encoder": self.encoder.init(k_enc, self.example_obs).get("params", {}),
-              "head": self.head.init(k_head, self.cond_dim)}
+    params = {
+      "encoder": self.encoder.init(k_enc, self.example_obs).get("params", {}),
+      "head": self.head.init(k_head, self.cond_dim),
+    }
     if self.bypass:
       params["p"] = self.p_net.init(k_p, jnp.zeros((1, self.cond_dim)))["params"]
       params["q"] = self.q_net.init(k_q, jnp.zeros((1, self.p_net.latent_dim)))["params"]
@@ -97,8 +99,9 @@ class Policy:
 def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int) -> Policy:
   """From `config.policy`-shaped settings: head {name, kwargs}, encoder {name, kwargs}, bypass
   {enabled, latent_dim, hidden, beta}, n_obs_steps, horizon, n_action_steps."""
-  head = registry.make_head(config.head.name, action_dim=action_dim, horizon=config.horizon,
-                            **config.head.get("kwargs", {}))
+  head = registry.make_head(
+    config.head.name, action_dim=action_dim, horizon=config.horizon, **config.head.get("kwargs", {})
+  )
   encoder = encoders.make_encoder(config.encoder.name, **config.encoder.get("kwargs", {}))
   example = jnp.zeros((1, config.n_obs_steps, obs_dim))
   if config.encoder.name == "image":
@@ -107,7 +110,18 @@ def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int
     example = {"images": {c: jnp.zeros((1, config.n_obs_steps, size, size, 3)) for c in cams}, "lowdim": example}
   cond_dim = jax.eval_shape(lambda: encoder.init_with_output(jax.random.PRNGKey(0), example)[0]).shape[-1]
   bp = config.bypass
-  return Policy(head=head, encoder=encoder, p_net=vib.Encoder(bp.latent_dim, bp.hidden),
-                q_net=vib.Decoder(cond_dim, bp.hidden), obs_dim=obs_dim, action_dim=action_dim,
-                n_obs_steps=config.n_obs_steps, horizon=config.horizon, n_action_steps=config.n_action_steps,
-                bypass=bool(bp.enabled), beta=float(bp.beta), cond_dim=int(cond_dim), example_obs=example)
+  return Policy(
+    head=head,
+    encoder=encoder,
+    p_net=vib.Encoder(bp.latent_dim, bp.hidden),
+    q_net=vib.Decoder(cond_dim, bp.hidden),
+    obs_dim=obs_dim,
+    action_dim=action_dim,
+    n_obs_steps=config.n_obs_steps,
+    horizon=config.horizon,
+    n_action_steps=config.n_action_steps,
+    bypass=bool(bp.enabled),
+    beta=float(bp.beta),
+    cond_dim=int(cond_dim),
+    example_obs=example,
+  )

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 from soe_jax.policies.heads import diffusion_unet, flow_unet, mlp
 from soe_jax.policies.heads.base import Head

@@ -30,6 +30,7 @@ def main(argv):
   os.environ.setdefault("MUJOCO_GL", "egl")
   from soe_jax import compile_cache
   from soe_jax.steer import server, session
+
   compile_cache.enable()
   s = session.SteeringSession(FLAGS.workdir, FLAGS.round, FLAGS.seed)
   httpd = server.serve(s, FLAGS.host, FLAGS.port)

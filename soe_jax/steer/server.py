@@ -128,11 +128,11 @@ def make_handler(session: SteeringSession):
       except (ValueError, json.JSONDecodeError) as e:
         return self._json(400, {"error": f"bad request body: {e}"})
       actions = {
-          "/api/proposals": lambda: session.proposals(body.get("dim"), body.get("round")),
-          "/api/execute": lambda: session.execute(body.get("id"), body.get("round")),
-          "/api/finish": session.finish,
-          "/api/reset": lambda: session.reset(int(body.get("seed", session.seed))),
-          "/api/save": lambda: session.save(body.get("round")),
+        "/api/proposals": lambda: session.proposals(body.get("dim"), body.get("round")),
+        "/api/execute": lambda: session.execute(body.get("id"), body.get("round")),
+        "/api/finish": session.finish,
+        "/api/reset": lambda: session.reset(int(body.get("seed", session.seed))),
+        "/api/save": lambda: session.save(body.get("round")),
       }
       if path not in actions:
         return self._json(404, {"error": f"no action {path}; known: {', '.join(sorted(actions))}"})

@@ -50,12 +50,24 @@ class SteeringSession:
     self._step = jax.jit(jax.vmap(self.env.step))
     self._reset = jax.jit(jax.vmap(self.env.reset))
     steer = self.config.explore.steer
-    self._candidates = jax.jit(lambda agent, hist, key, dim: strategies.steering_candidates(
-        self.policy, agent, hist, key, (dim,), float(self.config.explore.alpha), int(steer.num_proposals),
-        int(steer.num_choices)), static_argnums=3)
+    self._candidates = jax.jit(
+      lambda agent, hist, key, dim: strategies.steering_candidates(
+        self.policy,
+        agent,
+        hist,
+        key,
+        (dim,),
+        float(self.config.explore.alpha),
+        int(steer.num_proposals),
+        int(steer.num_choices),
+      ),
+      static_argnums=3,
+    )
     demos, _ = hdf5.read_episodes(loop.demonstrations_path(self.config, self.workdir))
     buf = loop.build_buffer(self.config, self.policy, [(demos, 0)])
-    self.snr = np.asarray(steering.buffer_snr(self.policy, self.agent, buf, jax.random.PRNGKey(0), int(steer.snr_windows)))
+    self.snr = np.asarray(
+      steering.buffer_snr(self.policy, self.agent, buf, jax.random.PRNGKey(0), int(steer.snr_windows))
+    )
     self.dims = steering.steering_dims(jnp.asarray(self.snr), float(steer.threshold_db)) or (int(np.argmax(self.snr)),)
     self.image_size = image_size
     self.renderer = None  # made on first use, on the thread that renders
@@ -107,7 +119,9 @@ class SteeringSession:
     dim, cands, token = self.proposal_set
     prefix, _, index = str(proposal_id).rpartition("-")
     if prefix != token or not index.isdigit() or int(index) >= len(cands):
-      raise SteeringError(f"unknown proposal {proposal_id!r}; the current ones are {token}-0 .. {token}-{len(cands) - 1}")
+      raise SteeringError(
+        f"unknown proposal {proposal_id!r}; the current ones are {token}-0 .. {token}-{len(cands) - 1}"
+      )
     for action in cands[int(index)]:
       self.episode["obs"].append(np.asarray(self.hist[0, -1]))
       self.episode["states"].append(np.asarray(self.state.pipeline_state.qpos[0]))
@@ -137,10 +151,17 @@ class SteeringSession:
     path = steered_path(self.workdir, self.round)
     episodes = hdf5.read_episodes(path)[0] if os.path.exists(path) else []
     obs = np.stack(self.episode["obs"])
-    episodes.append(dict(obs=loop.split_policy_obs(obs), actions=np.stack(self.episode["actions"]),
-                         states=np.stack(self.episode["states"]), success=self.success))
-    hdf5.write_episodes(path, episodes, dict(env_name=self.env.name, source=f"steered with round {self.round}",
-                                             steered=True))
+    episodes.append(
+      dict(
+        obs=loop.split_policy_obs(obs),
+        actions=np.stack(self.episode["actions"]),
+        states=np.stack(self.episode["states"]),
+        success=self.success,
+      )
+    )
+    hdf5.write_episodes(
+      path, episodes, dict(env_name=self.env.name, source=f"steered with round {self.round}", steered=True)
+    )
     self.saved = len(episodes)
     return self.reset(self.seed + 1)
 
@@ -148,7 +169,11 @@ class SteeringSession:
   def _camera(self):
     mujoco.mj_forward(self.env.mj_model, self.data)
     cam = self.env.mj_model.camera("agentview").id
-    return self.data.cam_xpos[cam].copy(), self.data.cam_xmat[cam].reshape(3, 3).copy(), float(self.env.mj_model.cam_fovy[cam])
+    return (
+      self.data.cam_xpos[cam].copy(),
+      self.data.cam_xmat[cam].reshape(3, 3).copy(),
+      float(self.env.mj_model.cam_fovy[cam]),
+    )
 
   def project(self, points: np.ndarray) -> list[list[float]]:
     """World points (N, 3) -> pixel coordinates in the rendered image (x right, y down)."""
@@ -160,6 +185,7 @@ class SteeringSession:
 
   def image_png(self) -> bytes:
     import matplotlib.image
+
     self.data.qpos[:] = np.asarray(self.state.pipeline_state.qpos[0])
     mujoco.mj_forward(self.env.mj_model, self.data)
     if self.renderer is None:
@@ -174,8 +200,16 @@ class SteeringSession:
     if self.proposal_set is not None:
       dim, cands, token = self.proposal_set
       props = [dict(id=f"{token}-{i}", path=self.project(c[:, :3])) for i, c in enumerate(cands)]
-    return dict(round=self.round, step=len(self.episode["actions"]), horizon=self.env.horizon, success=self.success,
-                finished=self.finished, saved=self.saved, seed=self.seed,
-                dims=[dict(dim=int(d), snr_db=round(float(self.snr[d]), 2)) for d in self.dims],
-                chosen_dim=None if self.proposal_set is None else int(self.proposal_set[0]), proposals=props,
-                path=self.project(np.stack(self.eef)))
+    return dict(
+      round=self.round,
+      step=len(self.episode["actions"]),
+      horizon=self.env.horizon,
+      success=self.success,
+      finished=self.finished,
+      saved=self.saved,
+      seed=self.seed,
+      dims=[dict(dim=int(d), snr_db=round(float(self.snr[d]), 2)) for d in self.dims],
+      chosen_dim=None if self.proposal_set is None else int(self.proposal_set[0]),
+      proposals=props,
+      path=self.project(np.stack(self.eef)),
+    )

@@ -8,9 +8,14 @@ from soe_jax.data import hdf5
 
 
 def _episode(rng, t):
-  return dict(obs={"robot0_eef_pos": rng.normal(size=(t, 3)).astype(np.float32),
-                   "object": rng.normal(size=(t, 10)).astype(np.float32)},
-              actions=rng.normal(size=(t, 10)).astype(np.float32), states=rng.normal(size=(t, 16)).astype(np.float32))
+  return dict(
+    obs={
+      "robot0_eef_pos": rng.normal(size=(t, 3)).astype(np.float32),
+      "object": rng.normal(size=(t, 10)).astype(np.float32),
+    },
+    actions=rng.normal(size=(t, 10)).astype(np.float32),
+    states=rng.normal(size=(t, 16)).astype(np.float32),
+  )
 
 
 def test_round_trip_is_exact(tmp_path):

@@ -58,12 +58,13 @@ def test_controller_reaches_reachable_target_smoothly(jitted_env):
   assert errors[-1] < 0.003, errors[-1]
   assert rot_err < 0.02, rot_err
   # No oscillation: once within 1 cm the error never grows back by more than 1 mm.
-  settled = errors[int(np.argmax(np.asarray(errors) < 0.01)):]
+  settled = errors[int(np.argmax(np.asarray(errors) < 0.01)) :]
   assert max(np.diff(settled), default=0.0) < 1e-3
 
 
 def test_delta_mode_moves_by_its_scale():
   from soe_jax.envs import make_env
+
   env = make_env("lift", action_mode="delta")
   state = jax.jit(env.reset)(jax.random.PRNGKey(0))
   step = jax.jit(env.step)

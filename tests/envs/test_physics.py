@@ -9,8 +9,9 @@ from soe_jax.envs import make_env, rotations, wrap_env
 
 
 def _hold(obs):
-  return jnp.concatenate([obs["robot0_eef_pos"], rotations.mat_to_rot6d(obs["robot0_eef_rot"].reshape(3, 3)),
-                          jnp.array([1.0])])
+  return jnp.concatenate(
+    [obs["robot0_eef_pos"], rotations.mat_to_rot6d(obs["robot0_eef_rot"].reshape(3, 3)), jnp.array([1.0])]
+  )
 
 
 def test_state_is_float64_bytes_and_steps_are_deterministic(jitted_env):
@@ -18,7 +19,7 @@ def test_state_is_float64_bytes_and_steps_are_deterministic(jitted_env):
   state = reset(jax.random.PRNGKey(0))
   s64 = env.physics.float64_state(state.pipeline_state)
   assert s64.dtype == np.float64 and s64.shape == (env.physics.nstate,)
-  np.testing.assert_array_equal(s64[1:1 + env.mj_model.nq], np.asarray(state.pipeline_state.qpos, np.float64))
+  np.testing.assert_array_equal(s64[1 : 1 + env.mj_model.nq], np.asarray(state.pipeline_state.qpos, np.float64))
   action = _hold(state.obs)
   a, b = state, state
   for _ in range(5):
@@ -26,7 +27,7 @@ def test_state_is_float64_bytes_and_steps_are_deterministic(jitted_env):
   np.testing.assert_array_equal(a.pipeline_state.raw, b.pipeline_state.raw)
   # Carried at full precision: the float64 state holds more than the float32 view shows.
   s64 = env.physics.float64_state(a.pipeline_state)
-  assert np.any(s64[1:1 + env.mj_model.nq] != s64[1:1 + env.mj_model.nq].astype(np.float32))
+  assert np.any(s64[1 : 1 + env.mj_model.nq] != s64[1 : 1 + env.mj_model.nq].astype(np.float32))
 
 
 def test_batched_step_is_independent_of_batch_position(jitted_env):
@@ -53,7 +54,7 @@ def test_wrapped_env_counts_steps_and_auto_resets_to_start():
   first = state.pipeline_state.qpos
   step = jax.jit(wrapped.step)
   actions = jax.vmap(_hold)(state.obs)
-  for t in range(3):
+  for _ in range(3):
     state = step(state, actions)
   assert np.all(np.asarray(state.done) == 1)
   # Done at the episode length: the auto-reset put every environment back to its start state.
@@ -64,8 +65,9 @@ def test_wrapped_env_counts_steps_and_auto_resets_to_start():
 def _scripted_motion(obs0, t):
   angle = 2 * jnp.pi * t / 50.0
   pos = obs0["robot0_eef_pos"] + jnp.array([0.05 * jnp.sin(angle), 0.04 * (1 - jnp.cos(angle)), -0.03 * jnp.sin(angle)])
-  return jnp.concatenate([pos, rotations.mat_to_rot6d(obs0["robot0_eef_rot"].reshape(3, 3)),
-                          jnp.where(t < 25, -1.0, 1.0)[None]])
+  return jnp.concatenate(
+    [pos, rotations.mat_to_rot6d(obs0["robot0_eef_rot"].reshape(3, 3)), jnp.where(t < 25, -1.0, 1.0)[None]]
+  )
 
 
 @pytest.mark.slow

@@ -13,8 +13,9 @@ OBS_SIZES = {"lift": 19, "can": 23, "square": 23}
 
 
 def _hold_action(obs):
-  return jnp.concatenate([obs["robot0_eef_pos"], rotations.mat_to_rot6d(obs["robot0_eef_rot"].reshape(3, 3)),
-                          jnp.array([-1.0])])
+  return jnp.concatenate(
+    [obs["robot0_eef_pos"], rotations.mat_to_rot6d(obs["robot0_eef_rot"].reshape(3, 3)), jnp.array([-1.0])]
+  )
 
 
 @pytest.mark.parametrize("task", TASKS)
@@ -30,9 +31,9 @@ def test_same_key_same_start_different_keys_differ(task, jitted_env):
 
 
 RANGES = {  # object x, y bounds and initial z from the spec
-    "lift": ((-0.03, 0.03), (-0.03, 0.03), lift.TABLE_TOP + 0.01 + lift.CUBE_HALF),
-    "can": ((-0.02, 0.22), (-0.42, -0.08), can.FLOOR_TOP + can.CAN_HALF_HEIGHT),
-    "square": ((-0.115, -0.110), (0.11, 0.225), 0.89),
+  "lift": ((-0.03, 0.03), (-0.03, 0.03), lift.TABLE_TOP + 0.01 + lift.CUBE_HALF),
+  "can": ((-0.02, 0.22), (-0.42, -0.08), can.FLOOR_TOP + can.CAN_HALF_HEIGHT),
+  "square": ((-0.115, -0.110), (0.11, 0.225), 0.89),
 }
 
 
@@ -55,6 +56,7 @@ def test_start_states_within_spec_ranges(task, jitted_env):
   # Arm: the initial pose plus 0.02 rad noise.
   arm = np.asarray(qpos[:, :7])
   from soe_jax.envs import panda
+
   assert 0.01 < (arm - panda.INIT_QPOS).std() < 0.03
 
 

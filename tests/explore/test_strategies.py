@@ -17,9 +17,16 @@ OBS_DIM, ACTION_DIM = 5, 10
 
 def _policy(sampler="ddim", steps=10):
   kwargs = dict(down_dims=(16, 32, 64), step_embed_dim=32, sampler=sampler, num_inference_steps=steps)
-  config = ml_collections.ConfigDict(dict(
-      head=dict(name="diffusion_unet", kwargs=kwargs), encoder=dict(name="lowdim", kwargs={}),
-      bypass=dict(enabled=True, latent_dim=4, hidden=32, beta=1e-3), n_obs_steps=2, horizon=16, n_action_steps=8))
+  config = ml_collections.ConfigDict(
+    dict(
+      head=dict(name="diffusion_unet", kwargs=kwargs),
+      encoder=dict(name="lowdim", kwargs={}),
+      bypass=dict(enabled=True, latent_dim=4, hidden=32, beta=1e-3),
+      n_obs_steps=2,
+      horizon=16,
+      n_action_steps=8,
+    )
+  )
   return make_policy(config, OBS_DIM, ACTION_DIM)
 
 
@@ -102,14 +109,15 @@ def test_steering_candidates_vary_one_dimension_and_are_distinct():
   policy = _policy()
   agent = _agent(policy)
   obs = jax.random.uniform(jax.random.PRNGKey(3), (3, 2, OBS_DIM), minval=0, maxval=2)
-  cands, dim_of = strategies.steering_candidates(policy, agent, obs, jax.random.PRNGKey(0), (2, 0), alpha=2.0,
-                                                 num_proposals=12, num_choices=4)
+  cands, dim_of = strategies.steering_candidates(
+    policy, agent, obs, jax.random.PRNGKey(0), (2, 0), alpha=2.0, num_proposals=12, num_choices=4
+  )
   assert cands.shape == (3, 8, policy.n_action_steps, ACTION_DIM)
   np.testing.assert_array_equal(dim_of, [2, 2, 2, 2, 0, 0, 0, 0])
   # Farthest point sampling never picks the same proposal twice: the 4 per dimension differ.
   for b in range(3):
     for j in range(2):
-      paths = np.asarray(cands[b, 4 * j:4 * j + 4, :, :3]).reshape(4, -1)
+      paths = np.asarray(cands[b, 4 * j : 4 * j + 4, :, :3]).reshape(4, -1)
       assert len({tuple(np.round(p, 6)) for p in paths}) == 4
 
 

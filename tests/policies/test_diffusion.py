@@ -21,9 +21,11 @@ def test_alphas_cumprod_matches_closed_form():
 
 def _exact_eps(sched, mean, std):
   """The optimal noise predictor for data N(mean, std^2): eps(x_t) = sqrt(1-ab)(x_t - sqrt(ab) mean)/(ab std^2 + 1 - ab)."""
+
   def denoise(x, t, cond):
     ab = sched.alphas_cumprod[t][:, None, None]
     return jnp.sqrt(1 - ab) * (x - jnp.sqrt(ab) * mean) / (ab * std**2 + 1 - ab)
+
   return denoise
 
 
@@ -38,8 +40,10 @@ def test_ddim_with_all_steps_and_eta_one_behaves_like_ddpm():
     assert abs(float(x.mean()) - mean) < 0.01 and abs(float(x.std()) - std) < 0.025
   assert abs(float(ddpm.mean() - ddim.mean())) < 0.01 and abs(float(ddpm.std() - ddim.std())) < 0.01
   # Deterministic DDIM (eta 0) approaches the data distribution as its step count grows.
-  spread = [float(diffusion.ddim_sample(denoise, sched, None, shape, jax.random.PRNGKey(2), num_steps=n).std())
-            for n in (10, 50, 100)]
+  spread = [
+    float(diffusion.ddim_sample(denoise, sched, None, shape, jax.random.PRNGKey(2), num_steps=n).std())
+    for n in (10, 50, 100)
+  ]
   assert spread[0] < spread[1] < spread[2] and abs(spread[2] - std) < 0.01
 
 
@@ -62,6 +66,7 @@ def test_sampling_is_a_pure_function_of_the_key_and_calls_the_hook():
 
 def test_diffusion_head_samples_both_modes_of_a_bimodal_target():
   import optax
+
   from soe_jax.policies import registry
 
   head = registry.make_head("diffusion_unet", action_dim=1, horizon=4, down_dims=(16, 32, 64), step_embed_dim=32)

@@ -14,9 +14,16 @@ from soe_jax.policies.policy import make_policy
 def _config(head="diffusion_unet", bypass=True, **head_kwargs):
   kwargs = dict(down_dims=(16, 32, 64), step_embed_dim=32) if head != "mlp" else dict(hidden=(64, 64))
   kwargs.update(head_kwargs)
-  return ml_collections.ConfigDict(dict(
-      head=dict(name=head, kwargs=kwargs), encoder=dict(name="lowdim", kwargs={}),
-      bypass=dict(enabled=bypass, latent_dim=4, hidden=32, beta=1e-3), n_obs_steps=2, horizon=16, n_action_steps=8))
+  return ml_collections.ConfigDict(
+    dict(
+      head=dict(name=head, kwargs=kwargs),
+      encoder=dict(name="lowdim", kwargs={}),
+      bypass=dict(enabled=bypass, latent_dim=4, hidden=32, beta=1e-3),
+      n_obs_steps=2,
+      horizon=16,
+      n_action_steps=8,
+    )
+  )
 
 
 def _batch(key, b=8, obs_dim=5, action_dim=3):
@@ -62,8 +69,8 @@ def _train(policy, params, steps, key, lr=3e-3):
 
   losses = []
   for i in range(steps):
-    params, opt, l = step(params, opt, jax.random.fold_in(key, i))
-    losses.append(float(l))
+    params, opt, loss = step(params, opt, jax.random.fold_in(key, i))
+    losses.append(float(loss))
   return params, losses
 
 
@@ -72,7 +79,9 @@ def test_bypass_does_not_change_the_base_policy_and_loss_falls():
   without = make_policy(_config(bypass=False), 5, 3)
   p0 = with_bp.init(jax.random.PRNGKey(0))
   p_with, losses = _train(with_bp, p0, 150, jax.random.PRNGKey(3))
-  p_without, losses_without = _train(without, {"encoder": p0["encoder"], "head": p0["head"]}, 150, jax.random.PRNGKey(3))
+  p_without, losses_without = _train(
+    without, {"encoder": p0["encoder"], "head": p0["head"]}, 150, jax.random.PRNGKey(3)
+  )
   chex_tol = dict(rtol=1e-5, atol=1e-6)
   for a, b in zip(jax.tree.leaves(p_with["head"]), jax.tree.leaves(p_without["head"])):
     np.testing.assert_allclose(a, b, **chex_tol)

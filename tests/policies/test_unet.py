@@ -35,8 +35,10 @@ def test_polyphase_upsample_equals_transposed_convolution():
   params = layer.init(jax.random.PRNGKey(1), x)
   w, b = params["params"]["kernel"], params["params"]["bias"]  # (k, out, in), PyTorch tap order
   # PyTorch ConvTranspose1d(k=4, stride=2, padding=1): dilate the input by 2, pad k-1-p = 2, flip the taps.
-  ref = jax.lax.conv_general_dilated(x, w[::-1], (1,), [(2, 2)], lhs_dilation=(2,),
-                                     dimension_numbers=("NWC", "WOI", "NWC")) + b
+  ref = (
+    jax.lax.conv_general_dilated(x, w[::-1], (1,), [(2, 2)], lhs_dilation=(2,), dimension_numbers=("NWC", "WOI", "NWC"))
+    + b
+  )
   out = layer.apply(params, x)
   assert out.shape == (2, 8, 6)
   np.testing.assert_allclose(out, ref, atol=1e-5)

@@ -38,8 +38,8 @@ def _setup(ema=True):
 def test_ema_decay_follows_diffusion_policy():
   d = train_state.ema_decay
   assert float(d(jnp.array(1))) == 0.0
-  np.testing.assert_allclose(float(d(jnp.array(2))), 1 - 2 ** -0.75, rtol=1e-6)
-  np.testing.assert_allclose(float(d(jnp.array(10_001))), 1 - 10_001 ** -0.75, rtol=1e-5)
+  np.testing.assert_allclose(float(d(jnp.array(2))), 1 - 2**-0.75, rtol=1e-6)
+  np.testing.assert_allclose(float(d(jnp.array(10_001))), 1 - 10_001**-0.75, rtol=1e-5)
   assert float(d(jnp.array(10_000_000))) == pytest.approx(0.9999)
 
 

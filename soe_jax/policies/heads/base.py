@@ -14,7 +14,8 @@ The VIB bypass only changes `cond`, so it works unchanged with every head.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 
 @dataclasses.dataclass(frozen=True)

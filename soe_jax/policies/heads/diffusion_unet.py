@@ -3,7 +3,7 @@ DDIM (default, 10 steps) or DDPM (100 steps) sampling with clipping."""
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import jax
 import jax.numpy as jnp
@@ -15,13 +15,23 @@ from soe_jax.policies.nets.unet1d import ConditionalUnet1D
 SAMPLERS = ("ddim", "ddpm")
 
 
-def make(action_dim: int, horizon: int, down_dims: Sequence[int] = (256, 512, 1024), step_embed_dim: int = 256,
-         kernel_size: int = 5, n_groups: int = 8, num_train_timesteps: int = 100, sampler: str = "ddim",
-         num_inference_steps: int = 10, eta: float = 0.0) -> Head:
+def make(
+  action_dim: int,
+  horizon: int,
+  down_dims: Sequence[int] = (256, 512, 1024),
+  step_embed_dim: int = 256,
+  kernel_size: int = 5,
+  n_groups: int = 8,
+  num_train_timesteps: int = 100,
+  sampler: str = "ddim",
+  num_inference_steps: int = 10,
+  eta: float = 0.0,
+) -> Head:
   if sampler not in SAMPLERS:
     raise ValueError(f"unknown sampler {sampler!r}; known: {', '.join(SAMPLERS)}")
-  net = ConditionalUnet1D(down_dims=tuple(down_dims), step_embed_dim=step_embed_dim, kernel_size=kernel_size,
-                          n_groups=n_groups)
+  net = ConditionalUnet1D(
+    down_dims=tuple(down_dims), step_embed_dim=step_embed_dim, kernel_size=kernel_size, n_groups=n_groups
+  )
   schedule = diffusion.Schedule.create(num_train_timesteps)
   shape = (horizon, action_dim)
 

@@ -6,7 +6,7 @@ Euler steps from noise at s = 0 to s = 1, then clips to [-1, 1]."""
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import jax
 import jax.numpy as jnp
@@ -17,10 +17,18 @@ from soe_jax.policies.nets.unet1d import ConditionalUnet1D
 TIME_SCALE = 100.0
 
 
-def make(action_dim: int, horizon: int, down_dims: Sequence[int] = (256, 512, 1024), step_embed_dim: int = 256,
-         kernel_size: int = 5, n_groups: int = 8, num_inference_steps: int = 10) -> Head:
-  net = ConditionalUnet1D(down_dims=tuple(down_dims), step_embed_dim=step_embed_dim, kernel_size=kernel_size,
-                          n_groups=n_groups)
+def make(
+  action_dim: int,
+  horizon: int,
+  down_dims: Sequence[int] = (256, 512, 1024),
+  step_embed_dim: int = 256,
+  kernel_size: int = 5,
+  n_groups: int = 8,
+  num_inference_steps: int = 10,
+) -> Head:
+  net = ConditionalUnet1D(
+    down_dims=tuple(down_dims), step_embed_dim=step_embed_dim, kernel_size=kernel_size, n_groups=n_groups
+  )
   shape = (horizon, action_dim)
 
   def init(key, cond_dim):

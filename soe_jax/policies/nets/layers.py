@@ -14,9 +14,9 @@ Tensors are channels-last: (B, T, C).
 
 from __future__ import annotations
 
+import flax.linen as nn
 import jax
 import jax.numpy as jnp
-import flax.linen as nn
 
 
 def torch_uniform(fan_in: int):
@@ -51,6 +51,7 @@ class Dense(nn.Module):
 
 class Conv1d(nn.Module):
   """Conv1d(in, features, kernel_size, stride, padding) on (B, T, C) as im2col + matmul."""
+
   features: int
   kernel_size: int
   stride: int = 1
@@ -67,7 +68,7 @@ class Conv1d(nn.Module):
       return _matmul_t(x, w[:, :, 0]) + b
     t_out = (x.shape[-2] + 2 * pad - k) // self.stride + 1
     xp = jnp.pad(x, [(0, 0)] * (x.ndim - 2) + [(pad, pad), (0, 0)])
-    cols = [xp[..., i:i + self.stride * (t_out - 1) + 1:self.stride, :] for i in range(k)]
+    cols = [xp[..., i : i + self.stride * (t_out - 1) + 1 : self.stride, :] for i in range(k)]
     patches = jnp.stack(cols, axis=-1).reshape(x.shape[:-2] + (t_out, c * k))  # (B, T_out, C * k)
     return _matmul_t(patches, w.reshape(self.features, c * k)) + b
 
@@ -76,6 +77,7 @@ class ConvTranspose1d(nn.Module):
   """ConvTranspose1d(C, C, kernel 4, stride 2, padding 1): (B, T, C) -> (B, 2T, C), polyphase.
 
   y[2m] = x[m] W1 + x[m-1] W3 and y[2m+1] = x[m+1] W0 + x[m] W2 (zero outside the input)."""
+
   features: int
 
   @nn.compact
@@ -96,6 +98,7 @@ class ConvTranspose1d(nn.Module):
 
 class GroupNorm(nn.Module):
   """GroupNorm with PyTorch's eps (1e-5) and affine init (ones, zeros)."""
+
   num_groups: int = 8
   eps: float = 1e-5
 

@@ -6,7 +6,7 @@ drawn independently per image. Images arrive in [0, 1] and are scaled to [-1, 1]
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import flax.linen as nn
 import jax
@@ -72,13 +72,15 @@ def crop(images, size: int, train: bool, key=None):
   h, w = images.shape[-3], images.shape[-2]
   if not train:
     top, left = (h - size) // 2, (w - size) // 2
-    return images[..., top:top + size, left:left + size, :]
+    return images[..., top : top + size, left : left + size, :]
   lead = images.shape[:-3]
   flat = images.reshape((-1,) + images.shape[-3:])
   k_top, k_left = jax.random.split(key)
   tops = jax.random.randint(k_top, (flat.shape[0],), 0, h - size + 1)
   lefts = jax.random.randint(k_left, (flat.shape[0],), 0, w - size + 1)
-  out = jax.vmap(lambda im, t, l: jax.lax.dynamic_slice(im, (t, l, 0), (size, size, im.shape[-1])))(flat, tops, lefts)
+  out = jax.vmap(lambda im, top, left: jax.lax.dynamic_slice(im, (top, left, 0), (size, size, im.shape[-1])))(
+    flat, tops, lefts
+  )
   return out.reshape(lead + out.shape[1:])
 
 
@@ -86,6 +88,7 @@ class ImageEncoder(nn.Module):
   """obs {"images": {camera: (B, To, H, W, 3) in [0, 1]}, "lowdim": (B, To, D) normalised} -> (B, To * (64 n_cams + D)).
 
   Cameras are encoded in the order of `cameras`, then the low-dim vector, per frame, frames oldest first."""
+
   cameras: Sequence[str] = ("agentview_image", "robot0_eye_in_hand_image")
   crop_size: int = 76
 

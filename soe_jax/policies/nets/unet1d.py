@@ -9,7 +9,7 @@ and always upsampling; a final Conv1dBlock and 1x1 Conv1d. Channels-last: (B, T,
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import flax.linen as nn
 import jax.numpy as jnp
@@ -44,7 +44,7 @@ class ResidualBlock(nn.Module):
   def __call__(self, x, cond):
     h = Conv1dBlock(self.features, self.kernel_size, self.n_groups)(x)
     film = Dense(2 * self.features)(mish(cond))  # (B, 2 * out): scale then bias
-    scale, bias = film[..., None, :self.features], film[..., None, self.features:]
+    scale, bias = film[..., None, : self.features], film[..., None, self.features :]
     h = scale * h + bias
     h = Conv1dBlock(self.features, self.kernel_size, self.n_groups)(h)
     residual = Conv1d(self.features, 1)(x) if x.shape[-1] != self.features else x
@@ -53,6 +53,7 @@ class ResidualBlock(nn.Module):
 
 class ConditionalUnet1D(nn.Module):
   """eps or velocity predictor: (sample (B, T, A), step (B,), global_cond (B, G)) -> (B, T, A)."""
+
   down_dims: Sequence[int] = (256, 512, 1024)
   step_embed_dim: int = 256
   kernel_size: int = 5

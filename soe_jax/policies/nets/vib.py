@@ -14,6 +14,7 @@ LOG_STD_MIN, LOG_STD_MAX = -10.0, 4.0
 
 class Encoder(nn.Module):
   """p_theta: (B, G) -> mu (B, d), log_std (B, d)."""
+
   latent_dim: int = 16
   hidden: int = 256
 
@@ -28,6 +29,7 @@ class Encoder(nn.Module):
 
 class Decoder(nn.Module):
   """q_phi: (B, d) -> (B, G)."""
+
   cond_dim: int
   hidden: int = 256
 
