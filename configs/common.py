@@ -15,7 +15,8 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
 - none: paper scale (Diffusion Policy's low-dim UNet, 25k steps of AdamW 3e-4 at batch 256, DDIM-10,
   3 rounds), for accelerators (there with `--config.env.backend=mujoco`: MJX compiles and steps
   these contact-rich scenes slowly even on an H100; BENCHMARKS.md);
-- the method: `dp`, `sime`, `soe` or `soe_steer`; and `head=NAME` (diffusion_unet, flow_unet, mlp).
+- the method: `dp`, `sime`, `soe` or `soe_steer` (`method`, and `explore.strategy`: the strategy of
+  that name with its settings); and `head=NAME` (diffusion_unet, flow_unet, mlp).
 Single fields are overridden on the command line with `--config.fit.lr=3e-4`.
 """
 
@@ -23,8 +24,10 @@ from __future__ import annotations
 
 import ml_collections
 
+from soe_jax.explore import registry as strategy_registry
+
+# A method is an arm of the experiment; each of these explores with the strategy of the same name.
 METHODS = ("dp", "sime", "soe", "soe_steer")
-METHOD_STRATEGY = {"dp": "none", "sime": "sime", "soe": "soe", "soe_steer": "soe_steer"}
 PRESETS = ("smoke", "cpu", "head") + METHODS
 
 
@@ -47,7 +50,8 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   batch 256, 25k steps, DDIM-10."""
   c = ml_collections.ConfigDict()
   c.seed = 0
-  c.env = ml_collections.ConfigDict(dict(task=task, backend="auto", action_mode="absolute", horizon=400))
+  c.method = "soe"
+  c.env = ml_collections.ConfigDict(dict(task=task, backend="auto", action_mode="absolute", episode_length=400))
   c.data = ml_collections.ConfigDict(
     dict(num_demos=num_demos, demo_seed=1000, hdf5_path="", max_length=400, capacity=2048)
   )
@@ -85,20 +89,11 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
       ema=True,
     )
   )
-  # Exploration: `tries` rollouts from each of `num_start_states` start states per round.
-  c.explore = ml_collections.ConfigDict(
-    dict(
-      method="soe",
-      strategy="soe",
-      alpha=2.0,
-      num_start_states=100,
-      tries=5,
-      slice_size=0,
-      decisions_per_call=10,
-      sime=dict(scale=0.01, tau1=0.0, tau2=1.0),
-      steer=dict(num_proposals=32, num_choices=5, every=1, threshold_db=0.0, max_dims=0, snr_windows=2048),
-    )
-  )
+  # Rollouts (evaluation and exploration): environments per compiled slice (0: all), decisions per call.
+  c.rollout = ml_collections.ConfigDict(dict(slice_size=0, decisions_per_call=10))
+  # Exploration: `tries` rollouts from each of `num_start_states` start states per round, with a
+  # strategy by name and its settings (`soe_jax/explore/`; the defaults are the strategy's own).
+  c.explore = ml_collections.ConfigDict(dict(strategy=strategy_config("soe"), num_start_states=100, tries=5))
   c.eval = ml_collections.ConfigDict(dict(num_start_states=100, seed=77_777))
   # Rounds after round 0: select episodes (first_success | all_successes | sime), append, re-fit
   # (continue from the previous round's parameters for refit_steps at a peak lr of refit_lr, 0 meaning
@@ -108,6 +103,11 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
     dict(num_rounds=3, select="first_success", refit="continue", refit_steps=10_000, refit_lr=0.0, round0_dir="")
   )
   return c
+
+
+def strategy_config(name: str) -> ml_collections.ConfigDict:
+  """`explore.strategy` for strategy `name`: its name and all its settings at their defaults."""
+  return ml_collections.ConfigDict(dict(name=name, kwargs=strategy_registry.default_settings(name)))
 
 
 def apply_presets(
@@ -121,8 +121,9 @@ def apply_presets(
   if len(methods) > 1:
     raise ValueError(f"choose one method preset, got {', '.join(methods)}")
   if methods:
-    c.explore.method = methods[0]
-    c.explore.strategy = METHOD_STRATEGY[methods[0]]
+    c.method = methods[0]
+    c.explore.strategy = strategy_config(methods[0])
+  steer = c.explore.strategy.kwargs if c.explore.strategy.name == "soe_steer" else None
   head_kwargs = c.policy.head.kwargs
   if presets.get("cpu"):
     head_kwargs.update(down_dims=(64, 128, 256), step_embed_dim=128)
@@ -131,18 +132,18 @@ def apply_presets(
     c.fit.update(num_steps=cpu_steps, batch_size=64, warmup_steps=250, chunk_size=250)
     c.data.num_demos = cpu_demos or c.data.num_demos
     c.rounds.update(num_rounds=1, refit_steps=3000)
-    c.explore.steer.update(num_proposals=16, every=2, max_dims=4)
-    if c.explore.method == "soe_steer":  # a whole round of 500 steered episodes: lighter steering
-      c.explore.steer.update(num_proposals=8, every=4, max_dims=2)
+    if steer is not None:  # a whole round of 500 steered episodes: lighter steering
+      steer.update(num_proposals=8, every=4, max_dims=2)
   if presets.get("smoke"):
     head_kwargs.update(down_dims=(16, 32, 64), step_embed_dim=32)
     c.policy.bypass.hidden = 32
     c.data.num_demos = min(c.data.num_demos, 4)
     c.fit.update(num_steps=40, chunk_size=20, batch_size=32, warmup_steps=10)
     c.data.capacity = 64
-    c.env.horizon = 24
+    c.env.episode_length = 24
     c.explore.update(num_start_states=3, tries=2)
-    c.explore.steer.update(num_proposals=4, num_choices=2, max_dims=2, snr_windows=64)
+    if steer is not None:
+      steer.update(num_proposals=4, num_choices=2, max_dims=2, snr_windows=64)
     c.eval.num_start_states = 4
     c.rounds.update(num_rounds=2, refit_steps=20)
   if "head" in presets:

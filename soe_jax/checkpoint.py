@@ -2,8 +2,8 @@
 statistics) plus the config as JSON, restorable into a ready-to-sample policy with one call.
 
   save(directory, state, config)
-  loaded = load(directory)                         # LoadedPolicy
-  actions = loaded.act(obs_history, key)           # raw observations in, raw actions out
+  agent = load(directory).agent                    # the acting policy
+  actions = agent.act(obs_history, key)            # raw (B, To, D) in, raw executed (B, Ta, A) out
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ import orbax.checkpoint as ocp
 from soe_jax import train_state
 from soe_jax.envs import controller, registry
 from soe_jax.policies import normalizer as normalizer_lib
+from soe_jax.policies.agent import Agent
 from soe_jax.policies.policy import Policy, make_policy
 
 STATE_DIR = "state"
@@ -65,11 +66,10 @@ class LoadedPolicy:
   state: train_state.TrainState
   config: ml_collections.ConfigDict
 
-  def act(self, obs_history: jax.Array, key: jax.Array, cond_fn=None) -> jax.Array:
-    """Raw observation history (B, To, D) -> raw action chunk (B, T, A) from the base path (EMA weights)."""
-    norm = self.state.normalizer
-    actions = self.policy.sample(self.state.eval_params, norm.normalize_obs(obs_history), key, cond_fn)
-    return norm.unnormalize_actions(actions)
+  @property
+  def agent(self) -> Agent:
+    """The acting policy (EMA weights and the normaliser): `agent.act(obs_history, key)`."""
+    return Agent.from_state(self.policy, self.state)
 
 
 def load(directory: str) -> LoadedPolicy:

@@ -28,12 +28,13 @@ def main(argv):
   if FLAGS.config is None:
     raise app.UsageError("--config=configs/<task>.py[:PRESETS] is required")
   logging.set_verbosity(logging.WARNING)  # keep the console to progress bars and phase summaries
-  from soe_jax import compile_cache, loop
+  from soe_jax import compile_cache, loop, sharding
 
+  sharding.maybe_initialize_distributed()  # a multi-host run, when cluster variables describe one
   compile_cache.enable()
   config = FLAGS.config
   workdir = FLAGS.workdir or os.path.join(
-    "runs", f"{config.env.task}-{config.explore.method}-{datetime.datetime.now():%Y%m%d-%H%M%S}"
+    "runs", f"{config.env.task}-{config.method}-{datetime.datetime.now():%Y%m%d-%H%M%S}"
   )
   summary = loop.run(config, workdir, progress=FLAGS.progress)
   print(f"report: {os.path.join(workdir, 'report.md')}")

@@ -7,7 +7,7 @@
   the count is what a robot doing them one after another would spend.
 - Average jerk: per episode, the mean over its third differences of ||d^3 p / dt^3|| of the measured
   end-effector position at the control rate (dt = 0.05 s), over the whole episode (to success or the
-  horizon); then the mean over episodes.
+  episode length); then the mean over episodes.
 - Relative improvement (after - before) / before, always with the absolute difference beside it (and
   alone when before is 0).
 """
@@ -71,3 +71,22 @@ def average_jerk(positions, lengths, dt: float = CONTROL_DT) -> float:
 def relative_improvement(before: float, after: float) -> dict:
   """{absolute, relative}; relative is None when `before` is 0 (only the absolute difference is shown)."""
   return dict(absolute=after - before, relative=None if before == 0 else (after - before) / before)
+
+
+def rollout_summary(out: dict, tries: int) -> dict:
+  """A rollout phase's numbers from `rollout.rollout`'s output, with `tries` adjacent tries per start
+  state: success rate and Wilson interval, jerk, mean length, and (k > 1) Pass@k and rollouts."""
+  sr = success_rate(out["success"])
+  rec = dict(
+    success_rate=sr["rate"],
+    num_rollouts=sr["num_episodes"],
+    wilson_low=sr["wilson_low"],
+    wilson_high=sr["wilson_high"],
+    jerk=average_jerk(out["eef_pos"], out["length"] + 1),
+    mean_length=float(out["length"].mean()),
+  )
+  if tries > 1:
+    s = out["success"].reshape(-1, tries)
+    r = rollouts(s)
+    rec.update(k=tries, pass_at_k=pass_at_k(s), rollouts=r["sum"], rollouts_mean=r["mean"])
+  return rec

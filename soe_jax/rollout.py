@@ -3,7 +3,7 @@
 One compiled program per call runs `decisions_per_call` decisions; a decision asks the strategy for
 the next `n_action_steps` actions (from the last `n_obs_steps` observations, the first repeated at
 reset) and executes them open loop in an inner `lax.scan` over control steps. Each environment stops
-at success or at the task's horizon (its later steps are padding); Python loops over calls (progress
+at success or at the task's episode length (its later steps are padding); Python loops over calls (progress
 bar, early exit once every environment is done) and over fixed-size slices of the batch. The batch
 is `vmap`ped through the task, so the MJX backend vectorises it and the C-engine backend steps it
 together; the engine does not care which, nor which strategy runs.
@@ -14,99 +14,117 @@ fold_in(fold_in(key, s), j). The same keys and slice size give the same rollouts
 Output (numpy, in the buffer's format): `obs` (N, H, D) raw policy observations before each action,
 `actions` (N, H, A), `eef_pos` (N, H + 1, 3) measured end-effector positions from the start,
 `qpos` (N, H, nq) simulator joint positions before each action, `length` (N,) actions up to and
-including the successful step (H if none), `success` (N,), `aux` {name: (N, ceil(H / Ta), ...)} the
-strategy's diagnostics per decision (zeros after the whole slice ended).
+including the successful step (H, the episode length, if none), `success` (N,), `aux`
+{name: (N, ceil(H / Ta), ...)} the strategy's diagnostics per decision (zeros after the whole slice
+ended).
 """
 
 from __future__ import annotations
 
 import functools
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import tqdm
+from brax.envs.base import State
 
 from soe_jax.envs import manipulation
-from soe_jax.explore.strategies import Agent
-from soe_jax.policies.policy import Policy
+from soe_jax.policies import agent as agent_lib
+from soe_jax.policies.agent import Agent
+from soe_jax.types import Strategy
+
+
+class RolloutCarry(NamedTuple):
+  """What the compiled decisions carry over a batch of B environments."""
+
+  state: State  # the batched brax state
+  obs_history: jax.Array  # (B, To, D) raw policy observations, the latest last
+  done: jax.Array  # (B,) bool: succeeded or reached the episode length
+  success: jax.Array  # (B,) bool
+  length: jax.Array  # (B,) int32 actions taken while active
+  t: jax.Array  # () int32 control steps since reset
 
 
 @functools.lru_cache(maxsize=32)
-def decisions_fn(env: manipulation.ManipulationEnv, policy: Policy, strategy, num_decisions: int):
-  ta, horizon = policy.n_action_steps, env.horizon
+def decisions_fn(env: manipulation.ManipulationEnv, strategy: Strategy, n_action_steps: int, num_decisions: int):
+  ta, episode_length = n_action_steps, env.episode_length
   step = jax.vmap(env.step)
 
   @jax.jit
-  def run(carry, agent: Agent, key):
-    def control(carry, action):
-      state, hist, done, success, length, t = carry
-      nxt = step(state, action)
-      active = ~done
+  def run(carry: RolloutCarry, agent: Agent, key):
+    def control(c: RolloutCarry, action):
+      nxt = step(c.state, action)
+      active = ~c.done
       record = dict(
-        obs=manipulation.policy_obs(state.obs),
+        obs=manipulation.policy_obs(c.state.obs),
         action=action,
         eef=nxt.obs["robot0_eef_pos"],
-        qpos=state.pipeline_state.qpos,
+        qpos=c.state.pipeline_state.qpos,
       )
       succeeded = active & (nxt.metrics["success"] > 0)
-      hist = jnp.concatenate([hist[:, 1:], manipulation.policy_obs(nxt.obs)[:, None]], axis=1)
-      carry = (
-        nxt,
-        hist,
-        done | succeeded | (t + 1 >= horizon),
-        success | succeeded,
-        length + active.astype(jnp.int32),
-        t + 1,
+      c = RolloutCarry(
+        state=nxt,
+        obs_history=agent_lib.push_history(c.obs_history, manipulation.policy_obs(nxt.obs)),
+        done=c.done | succeeded | (c.t + 1 >= episode_length),
+        success=c.success | succeeded,
+        length=c.length + active.astype(jnp.int32),
+        t=c.t + 1,
       )
-      return carry, record
+      return c, record
 
-    def decision(carry, _):
-      state, hist, t = carry[0], carry[1], carry[-1]
-      state_t = state.replace(info=dict(state.info, steps=jnp.full(hist.shape[:1], t)))
-      actions, aux = strategy(policy, agent, hist, state_t, jax.random.fold_in(key, t // ta))
-      carry, records = jax.lax.scan(control, carry, actions.swapaxes(0, 1))
-      return carry, (records, aux)
+    def decision(c: RolloutCarry, _):
+      state_t = c.state.replace(info=dict(c.state.info, steps=jnp.full(c.done.shape, c.t)))
+      actions, aux = strategy(agent, c.obs_history, state_t, jax.random.fold_in(key, c.t // ta))
+      c, records = jax.lax.scan(control, c, actions.swapaxes(0, 1))
+      return c, (records, aux)
 
     return jax.lax.scan(decision, carry, None, length=num_decisions)
 
   return run
 
 
-def initial_carry(env, policy, reset_keys):
+def initial_carry(env, n_obs_steps: int, reset_keys) -> RolloutCarry:
   state = jax.jit(jax.vmap(env.reset))(reset_keys)
-  hist = jnp.repeat(manipulation.policy_obs(state.obs)[:, None], policy.n_obs_steps, axis=1)
   no = jnp.zeros(reset_keys.shape[0], bool)
-  return state, hist, no, no, jnp.zeros(reset_keys.shape[0], jnp.int32), jnp.zeros((), jnp.int32)
+  return RolloutCarry(
+    state=state,
+    obs_history=agent_lib.initial_history(manipulation.policy_obs(state.obs), n_obs_steps),
+    done=no,
+    success=no,
+    length=jnp.zeros(reset_keys.shape[0], jnp.int32),
+    t=jnp.zeros((), jnp.int32),
+  )
 
 
-def _run_slice(env, policy, agent, strategy, reset_keys, key, decisions_per_call, bar):
-  ta, horizon = policy.n_action_steps, env.horizon
-  total = -(-horizon // ta)
-  carry = initial_carry(env, policy, reset_keys)
-  start_eef = np.asarray(carry[0].obs["robot0_eef_pos"])
+def _run_slice(env, agent: Agent, strategy, reset_keys, key, decisions_per_call, bar):
+  ta, episode_length = agent.policy.n_action_steps, env.episode_length
+  total = -(-episode_length // ta)
+  carry = initial_carry(env, agent.policy.n_obs_steps, reset_keys)
+  start_eef = np.asarray(carry.state.obs["robot0_eef_pos"])
   records, auxes = [], []
   decided = 0
   while decided < total:
     n = min(decisions_per_call, total - decided)
-    carry, (rec, aux) = decisions_fn(env, policy, strategy, n)(carry, agent, key)
+    carry, (rec, aux) = decisions_fn(env, strategy, ta, n)(carry, agent, key)
     rec, aux = jax.device_get((rec, aux))
     records.append(jax.tree.map(lambda x: x.reshape((-1,) + x.shape[2:]), rec))  # (steps, B, ...)
     auxes.append(aux)
     decided += n
     bar.update(n * ta * reset_keys.shape[0])
-    if bool(np.asarray(carry[2]).all()):
+    if bool(np.asarray(carry.done).all()):
       break
   cat = lambda xs: np.concatenate(xs, 0).swapaxes(0, 1)
-  rec = {k: cat([r[k] for r in records])[:, :horizon] for k in records[0]}
-  pad = horizon - rec["obs"].shape[1]  # every episode ended early: pad to the horizon
+  rec = {k: cat([r[k] for r in records])[:, :episode_length] for k in records[0]}
+  pad = episode_length - rec["obs"].shape[1]  # every episode ended early: pad to the episode length
   if pad:
     rec = {k: np.concatenate([v, np.repeat(v[:, -1:], pad, axis=1)], 1) for k, v in rec.items()}
   aux = {k: cat([a[k] for a in auxes]) for k in auxes[0]}
   aux = {
     k: np.concatenate([v, np.zeros((v.shape[0], total - v.shape[1]) + v.shape[2:], v.dtype)], 1) for k, v in aux.items()
   }  # decisions after the whole batch ended: zeros
-  _, _, _, success, length, _ = jax.device_get(carry)
+  success, length = jax.device_get((carry.success, carry.length))
   return dict(
     obs=rec["obs"],
     actions=rec["action"],
@@ -120,9 +138,8 @@ def _run_slice(env, policy, agent, strategy, reset_keys, key, decisions_per_call
 
 def rollout(
   env: manipulation.ManipulationEnv,
-  policy: Policy,
   agent: Agent,
-  strategy,
+  strategy: Strategy,
   reset_keys,
   key,
   *,
@@ -137,24 +154,11 @@ def rollout(
   size = min(slice_size or n, n)
   num_slices = -(-n // size)
   padded = jnp.concatenate([reset_keys, jnp.repeat(reset_keys[-1:], num_slices * size - n, axis=0)])
-  bar = tqdm.tqdm(
-    total=num_slices * size * env.horizon,
-    desc=desc,
-    unit="env-step",
-    unit_scale=True,
-    disable=not progress,
-    leave=False,
-  )
+  total = num_slices * size * env.episode_length
+  bar = tqdm.tqdm(total=total, desc=desc, unit="env-step", unit_scale=True, disable=not progress, leave=False)
   parts = [
     _run_slice(
-      env,
-      policy,
-      agent,
-      strategy,
-      padded[s * size : (s + 1) * size],
-      jax.random.fold_in(key, s),
-      decisions_per_call,
-      bar,
+      env, agent, strategy, padded[s * size : (s + 1) * size], jax.random.fold_in(key, s), decisions_per_call, bar
     )
     for s in range(num_slices)
   ]

@@ -59,12 +59,60 @@ def read_metrics(workdir: str) -> list[dict]:
     return [json.loads(line) for line in f if line.strip()]
 
 
+LINE_KEYS = (
+  "round",
+  "phase",
+  "method",
+  "success_rate",
+  "num_rollouts",
+  "wilson_low",
+  "wilson_high",
+  "pass_at_k",
+  "k",
+  "rollouts",
+  "rollouts_mean",
+  "jerk",
+  "num_episodes",
+  "time_compile_s",
+  "time_fit_s",
+  "time_explore_s",
+  "time_evaluate_s",
+  "time_total_s",
+)
+PHASE_TIMES = ("time_fit_s", "time_explore_s", "time_evaluate_s")
+
+
+def line(record: dict, method: str) -> dict:
+  """The metrics.jsonl line of a phase record: the common keys first (None where a phase has no such
+  number), then the phase's own; per-episode lists stay in the phase's JSON file."""
+  out = {k: record.get(k) for k in LINE_KEYS}
+  out.update(method=method, **dict.fromkeys(PHASE_TIMES, 0.0))
+  out[f"time_{record['phase']}_s"] = round(record["time_total_s"] - record["time_compile_s"], 2)
+  out.update({k: v for k, v in record.items() if k not in out and k not in ("success", "loss_curve")})
+  return out
+
+
 class RunLog:
+  """The log of the run in `workdir`, as a context manager; `once` writes a phase's line unless an
+  earlier (interrupted) run of the same workdir already did."""
+
   def __init__(self, workdir: str):
     from tensorboardX import SummaryWriter
 
     self.path = os.path.join(workdir, "metrics.jsonl")
+    self.logged = {(m["round"], m["phase"]) for m in read_metrics(workdir)}
     self.writer = SummaryWriter(os.path.join(workdir, "tb"))
+
+  def __enter__(self) -> RunLog:
+    return self
+
+  def __exit__(self, *exc) -> None:
+    self.close()
+
+  def once(self, record: dict, method: str) -> None:
+    if (record["round"], record["phase"]) not in self.logged:
+      self.write(line(record, method))
+      self.logged.add((record["round"], record["phase"]))
 
   def write(self, record: dict) -> None:
     """Append one phase's record (and its numbers to TensorBoard, stepped by round)."""

@@ -12,7 +12,8 @@ import pytest
 from configs import can as can_config
 from configs import lift as lift_config
 from configs import square as square_config
-from soe_jax import loop, report, runlog
+from soe_jax import aggregate, loop, rundir, runlog
+from soe_jax.rundir import RunDir
 
 TIMING = ("time_compile_s", "time_fit_s", "time_explore_s", "time_evaluate_s", "time_total_s")
 
@@ -35,7 +36,7 @@ def test_a_run_leaves_metrics_report_plots_and_data(smoke_run):
     (2, "evaluate"),
   ]
   for m in lines:
-    assert set(loop.LINE_KEYS) <= set(m)
+    assert set(runlog.LINE_KEYS) <= set(m)
     assert m["time_total_s"] >= m["time_compile_s"] >= 0
   explore = lines[2]
   assert explore["num_rollouts"] == config.explore.num_start_states * config.explore.tries
@@ -57,7 +58,7 @@ def test_a_run_leaves_metrics_report_plots_and_data(smoke_run):
   assert "| soe |" in text and f"(n={config.eval.num_start_states})" in text
   assert summary["rounds"] == [0, 1, 2] and len(summary["success_per_round"]) == 3
   # Round 0 is stored once, beside the run, for every method with the same settings.
-  assert os.path.exists(os.path.join(loop.round0_dir(config, workdir), "ckpt", "config.json"))
+  assert os.path.exists(os.path.join(RunDir(workdir, config).round0, "ckpt", "config.json"))
 
 
 def test_an_interrupted_run_resumes_to_the_same_numbers(smoke_run, monkeypatch):
@@ -96,7 +97,7 @@ def test_a_continued_refit_runs_at_its_own_learning_rate(smoke_run):
   params = [
     checkpoint.load(os.path.join(d, "ckpt")).state.params
     for d in (
-      loop.round0_dir(config, workdir),
+      RunDir(workdir, config).round0,
       os.path.join(other, "rounds", "1"),
       os.path.join(workdir, "rounds", "1"),
     )
@@ -110,15 +111,15 @@ def test_a_continued_refit_runs_at_its_own_learning_rate(smoke_run):
 def test_a_different_config_is_refused_naming_the_fields(smoke_run):
   _, config, workdir, _ = smoke_run
   changed = lift_config.get_config("smoke,soe")
-  changed.explore.alpha = 3.0
+  changed.explore.strategy.kwargs.alpha = 3.0
   changed.fit.lr = 1e-3
-  with pytest.raises(ValueError, match=r"explore\.alpha: 2\.0 -> 3\.0[\s\S]*fit\.lr"):
+  with pytest.raises(ValueError, match=r"explore\.strategy\.kwargs\.alpha: 2\.0 -> 3\.0[\s\S]*fit\.lr"):
     loop.run(changed, workdir, progress=False)
 
 
 def test_aggregate_table_over_runs(smoke_run, tmp_path):
   root, _, workdir, _ = smoke_run
-  md, csv_text = report.aggregate([workdir])
+  md, csv_text = aggregate.aggregate([workdir])
   assert "| lift | soe |  | 1 |" in md
   header, row = csv_text.splitlines()[:2]
   assert header.startswith("task,method,variant,seeds,pass_at_k") and header.endswith(",round_wall_s")
@@ -129,11 +130,14 @@ def test_aggregate_table_over_runs(smoke_run, tmp_path):
     copy = tmp_path / name
     shutil.copytree(workdir, copy, ignore=shutil.ignore_patterns("rounds", "data", "tb"))
     saved = json.loads((copy / "config.json").read_text())
-    saved["explore"]["alpha"] = alpha
+    saved["explore"]["strategy"]["kwargs"]["alpha"] = alpha
     (copy / "config.json").write_text(json.dumps(saved))
     copies.append(str(copy))
-  md, _ = report.aggregate([workdir] + copies)
-  assert "| lift | soe | explore.alpha=2.0 | 1 |" in md and "| lift | soe | explore.alpha=3.0 | 1 |" in md
+  md, _ = aggregate.aggregate([workdir] + copies)
+  assert (
+    "| lift | soe | explore.strategy.kwargs.alpha=2.0 | 1 |" in md
+    and "| lift | soe | explore.strategy.kwargs.alpha=3.0 | 1 |" in md
+  )
 
 
 def test_a_saved_checkpoint_rescored_gives_the_same_success(smoke_run):
@@ -141,15 +145,17 @@ def test_a_saved_checkpoint_rescored_gives_the_same_success(smoke_run):
   from soe_jax import checkpoint
 
   state = checkpoint.load(os.path.join(workdir, "rounds", "1", "ckpt")).state
-  rescored = loop.Experiment(config, workdir, progress=False).evaluate(state, 1)
+  rescored = loop.Experiment(config, RunDir(workdir, config), progress=False).evaluate(state, 1)
   saved = json.load(open(os.path.join(workdir, "rounds", "1", "evaluate.json")))
   assert rescored["success"] == saved["success"] and rescored["jerk"] == pytest.approx(saved["jerk"])
 
 
 def test_method_presets_choose_the_strategy():
-  assert lift_config.get_config("dp").explore.strategy == "none"
-  assert lift_config.get_config("cpu,sime").explore.strategy == "sime"
-  assert lift_config.get_config("cpu,soe_steer").explore.steer.every == 4
+  for method in ("dp", "sime", "soe", "soe_steer"):
+    config = lift_config.get_config(f"cpu,{method}")
+    assert config.method == config.explore.strategy.name == method
+  assert lift_config.get_config("cpu,soe_steer").explore.strategy.kwargs.every == 4
+  assert lift_config.get_config("smoke,soe").explore.strategy.kwargs.to_dict() == {"alpha": 2.0}
   with pytest.raises(ValueError, match="choose one method preset"):
     lift_config.get_config("soe,dp")
   with pytest.raises(ValueError, match="known presets: smoke, cpu, head, dp, sime, soe, soe_steer"):
@@ -167,14 +173,14 @@ def test_the_cpu_preset_takes_the_tasks_own_demonstrations_and_steps():
 
 def test_unknown_names_are_refused_before_any_work(tmp_path):
   for field, value, message in [
-    ("explore.strategy", "noise", "known strategies: none, sime"),
-    ("rounds.select", "best", "known selections: first_success"),
+    ("explore.strategy.name", "noise", "known strategies: dp, expert, sime"),
+    ("explore.strategy.name", "sime", "strategy 'sime' has no setting 'alpha'"),  # soe's settings
+    ("rounds.select", "best", "known selections: all_successes, first_success"),
     ("rounds.refit", "warm", "known: continue, scratch"),
     ("rounds.refit_lr", -1e-4, r"refit_lr must be >= 0"),
   ]:
     config = lift_config.get_config("smoke")
-    section, name = field.split(".")
-    config[section][name] = value
+    config.update_from_flattened_dict({field: value})
     with pytest.raises(ValueError, match=message):
       loop.run(config, str(tmp_path / "run"), progress=False)
     assert not os.path.exists(tmp_path / "run")
@@ -182,10 +188,39 @@ def test_unknown_names_are_refused_before_any_work(tmp_path):
 
 def test_a_finished_run_can_be_extended_by_more_rounds(tmp_path):
   saved = lift_config.get_config("smoke")
-  loop.check_config(str(tmp_path), saved)
+  rundir.check_config(str(tmp_path), saved)
   more = lift_config.get_config("smoke")
   more.rounds.num_rounds = saved.rounds.num_rounds + 1
-  loop.check_config(str(tmp_path), more)  # accepted, and saved
-  assert loop.load_config(str(tmp_path)).rounds.num_rounds == saved.rounds.num_rounds + 1
+  rundir.check_config(str(tmp_path), more)  # accepted, and saved
+  assert rundir.load_config(str(tmp_path)).rounds.num_rounds == saved.rounds.num_rounds + 1
   with pytest.raises(ValueError, match="rounds.num_rounds"):
-    loop.check_config(str(tmp_path), saved)  # fewer rounds than saved: refused
+    rundir.check_config(str(tmp_path), saved)  # fewer rounds than saved: refused
+
+
+def test_a_workdir_saved_before_the_fields_were_renamed_is_refused_naming_them(tmp_path):
+  config = lift_config.get_config("smoke")
+  saved = rundir.plain(config)
+  saved["env"]["horizon"] = saved["env"].pop("episode_length")
+  saved["explore"].update(method="soe", alpha=2.0, steer=dict(every=1))
+  (tmp_path / "config.json").write_text(json.dumps(saved))
+  message = (
+    r"renamed:\n  env.horizon -> env.episode_length\n  explore.alpha -> [\s\S]*explore.steer -> [\s\S]*new --workdir"
+  )
+  with pytest.raises(ValueError, match=message):
+    loop.run(config, str(tmp_path), progress=False)
+  with pytest.raises(ValueError, match="explore.method -> method"):
+    rundir.load_config(str(tmp_path))
+
+
+def test_compare_explores_each_method_as_its_preset_from_the_shared_round0(smoke_run):
+  from soe_jax import compare
+
+  root, config, workdir, _ = smoke_run
+  configs = {m: compare.method_config("configs/lift.py:smoke", m, {"seed": config.seed}) for m in ("dp", "soe_steer")}
+  assert configs["soe_steer"].explore.strategy.kwargs.num_proposals == 4  # the smoke preset's steering
+  rows = compare.compare(configs, str(root / "compare"), num_start_states=2, tries=2, progress=False)
+  assert [(r["method"], r["strategy"], r["episodes"]) for r in rows] == [("dp", "dp", 4), ("soe_steer", "soe_steer", 4)]
+  saved = json.load(open(os.path.join(root, "compare", "compare.json")))
+  base = json.load(open(os.path.join(RunDir(workdir, config).round0, "evaluate.json")))
+  assert saved["base"]["success_rate"] == base["success_rate"]  # the fixture's round 0, not a new fit
+  assert "| soe_steer |" in open(os.path.join(root, "compare", "compare.md")).read()

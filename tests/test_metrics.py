@@ -61,5 +61,5 @@ def test_episode_selection_rules():
   np.testing.assert_array_equal(select(s, "all_successes"), s)
   # SIME's train_0.5: states with success rate 0.4 (rows 0 and 3) keep all their successes; 0.8 drops.
   np.testing.assert_array_equal(select(s, "sime"), [[0, 1, 1, 0, 0], [0] * 5, [0] * 5, [1, 0, 0, 0, 1]])
-  with pytest.raises(ValueError, match="known selections: first_success, all_successes, sime"):
+  with pytest.raises(ValueError, match="known selections: all_successes, first_success, sime"):
     select(s, "best")

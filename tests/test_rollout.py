@@ -1,6 +1,7 @@
 """The rollout engine: observation history and chunk bookkeeping, determinism, slices, and the scripted
 demonstrator run through it as a policy."""
 
+import dataclasses
 import functools
 
 import jax
@@ -12,49 +13,50 @@ from soe_jax import checkpoint, rollout
 from soe_jax.envs import make_env
 from soe_jax.experts.collect import run_demos
 from soe_jax.experts.registry import make_expert
-from soe_jax.explore import strategies
+from soe_jax.explore import registry
 from soe_jax.policies import normalizer as normalizer_lib
+from soe_jax.policies.agent import Agent
 
 
 @functools.cache
-def _setup(horizon):
-  env = make_env("lift", horizon=horizon)
+def _setup(episode_length):
+  env = make_env("lift", episode_length=episode_length)
   policy = checkpoint.policy_from_config(lift_config.get_config("smoke"))
   rng = np.random.default_rng(0)
   demo_like = rng.uniform(-0.2, 1.0, (100, policy.obs_dim))
   actions = np.concatenate(
     [rng.uniform(-0.1, 0.1, (100, 2)), rng.uniform(0.85, 1.0, (100, 1)), rng.uniform(-1, 1, (100, 7))], 1
   )
-  agent = strategies.Agent(policy.init(jax.random.PRNGKey(0)), normalizer_lib.fit(demo_like, actions))
+  agent = Agent(policy, policy.init(jax.random.PRNGKey(0)), normalizer_lib.fit(demo_like, actions))
   return env, policy, agent
 
 
-HORIZON = 20  # not a multiple of n_action_steps (8); every short test shares one compiled program
+EPISODE = 20  # not a multiple of n_action_steps (8); every short test shares one compiled program
 
 
 def test_rollouts_are_a_pure_function_of_the_keys():
-  env, policy, agent = _setup(HORIZON)
+  env, policy, agent = _setup(EPISODE)
   keys = jax.random.split(jax.random.PRNGKey(1), 2)
-  soe = strategies.make_strategy("soe")
-  a = rollout.rollout(env, policy, agent, soe, keys, jax.random.PRNGKey(2), progress=False)
-  b = rollout.rollout(env, policy, agent, soe, keys, jax.random.PRNGKey(2), progress=False)
+  soe = registry.make_strategy("soe")
+  a = rollout.rollout(env, agent, soe, keys, jax.random.PRNGKey(2), progress=False)
+  b = rollout.rollout(env, agent, soe, keys, jax.random.PRNGKey(2), progress=False)
   for k in ("obs", "actions", "eef_pos", "qpos", "length", "success"):
     np.testing.assert_array_equal(a[k], b[k])
   np.testing.assert_array_equal(a["aux"]["z"], b["aux"]["z"])
-  c = rollout.rollout(env, policy, agent, soe, keys, jax.random.PRNGKey(3), progress=False)
+  c = rollout.rollout(env, agent, soe, keys, jax.random.PRNGKey(3), progress=False)
   np.testing.assert_array_equal(a["obs"][:, 0], c["obs"][:, 0])  # same start states
   assert not np.allclose(a["actions"], c["actions"])  # other exploration noise
 
 
-def test_records_history_horizon_and_slices():
-  env, policy, agent = _setup(HORIZON)
+def test_records_history_episode_length_and_slices():
+  env, policy, agent = _setup(EPISODE)
   keys = jax.random.split(jax.random.PRNGKey(1), 4)
   out = rollout.rollout(
-    env, policy, agent, strategies.make_strategy("none"), keys, jax.random.PRNGKey(0), slice_size=2, progress=False
+    env, agent, registry.make_strategy("dp"), keys, jax.random.PRNGKey(0), slice_size=2, progress=False
   )
-  assert out["obs"].shape == (4, HORIZON, policy.obs_dim) and out["actions"].shape == (4, HORIZON, 10)
-  assert out["eef_pos"].shape == (4, HORIZON + 1, 3) and out["aux"] == {}
-  np.testing.assert_array_equal(out["length"], HORIZON)  # an untrained policy does not lift the cube
+  assert out["obs"].shape == (4, EPISODE, policy.obs_dim) and out["actions"].shape == (4, EPISODE, 10)
+  assert out["eef_pos"].shape == (4, EPISODE + 1, 3) and out["aux"] == {}
+  np.testing.assert_array_equal(out["length"], EPISODE)  # an untrained policy does not lift the cube
   assert not out["success"].any()
   # Every slice starts from its own keys' start states.
   start = jax.vmap(env.reset)(keys)
@@ -70,9 +72,7 @@ def test_scripted_demonstrator_through_the_engine_reproduces_its_success_rate():
   env, policy, agent = _setup(400)
   keys = jax.random.split(jax.random.PRNGKey(7), 8)
   demos = run_demos(env, make_expert("lift"), keys, progress=False)
-  out = rollout.rollout(
-    env, policy, agent, strategies.make_strategy("expert", env=env), keys, jax.random.PRNGKey(0), progress=False
-  )
+  out = rollout.rollout(env, agent, registry.make_strategy("expert", env), keys, jax.random.PRNGKey(0), progress=False)
   assert abs(out["success"].mean() - demos["success"].mean()) <= 1 / 8
   assert out["success"].mean() >= 0.875
   ok = out["success"]
@@ -83,13 +83,15 @@ def test_scripted_demonstrator_through_the_engine_reproduces_its_success_rate():
   assert (cube_z > 0.8).all()
 
 
-@pytest.mark.parametrize("name", ["sime", "soe_steer"])
+@pytest.mark.parametrize("name", [n for n in registry.strategy_names() if n != "expert"])  # expert: above
 def test_every_strategy_runs_in_the_engine(name):
-  env, policy, agent = _setup(HORIZON)
+  env, policy, agent = _setup(EPISODE)
   keys = jax.random.split(jax.random.PRNGKey(5), 2)
-  strat = strategies.make_strategy(name, env=env, dims=(0, 1))
-  out = rollout.rollout(env, policy, agent, strat, keys, jax.random.PRNGKey(0), progress=False)
-  assert np.isfinite(out["actions"]).all()
+  strat = registry.make_strategy(name, env)
+  if name == "soe_steer":
+    strat = dataclasses.replace(strat, dims=(0, 1), num_proposals=4, num_choices=2)
+  out = rollout.rollout(env, agent, strat, keys, jax.random.PRNGKey(0), progress=False)
+  assert out["actions"].shape == (2, EPISODE, 10) and np.isfinite(out["actions"]).all()
   if name == "soe_steer":
     assert out["aux"]["steered"].shape == (2, 3) and out["aux"]["steered"].all()
     assert set(np.unique(out["aux"]["dim"])) <= {0, 1}

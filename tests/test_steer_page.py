@@ -48,10 +48,9 @@ def test_steer_a_proposal_and_save_it_from_the_browser(page_server):
   from playwright.sync_api import sync_playwright
 
   from soe_jax.data import hdf5
-  from soe_jax.steer.session import steered_path
 
   url, session, workdir = page_server
-  path = steered_path(workdir, session.round)
+  path = session.run.steered_path(session.round)
   assert not os.path.exists(path)
   with sync_playwright() as p:
     browser = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
@@ -61,8 +60,8 @@ def test_steer_a_proposal_and_save_it_from_the_browser(page_server):
     assert page.inner_text("#step") == "0"
     page.click(".dim >> nth=0")
     page.wait_for_selector("#proposal-0")
-    assert page.locator(".prop").count() == session.config.explore.steer.num_choices
-    assert page.locator("#overlay path").count() == 1 + session.config.explore.steer.num_choices  # paths drawn
+    assert page.locator(".prop").count() == session.steer.num_choices
+    assert page.locator("#overlay path").count() == 1 + session.steer.num_choices  # paths drawn
     page.click("#proposal-0")
     page.wait_for_function("document.getElementById('step').textContent !== '0'")
     steps = int(page.inner_text("#step"))

@@ -28,7 +28,11 @@ flags.DEFINE_integer("repeats", None, "Timed calls.")
 flags.DEFINE_enum("bypass", "off", ["on", "off"], "fit: train the VIB bypass too.")
 flags.DEFINE_enum("ema", "off", ["on", "off"], "fit: keep the EMA of parameters.")
 flags.DEFINE_integer("batch", 1, "sample: observations per chunk.")
-flags.DEFINE_string("strategy", "none", "rollout: exploration strategy (none, sime, soe, soe_steer, expert).")
+flags.DEFINE_string(
+  "strategy",
+  "",
+  "rollout: exploration strategy (dp, sime, soe, soe_steer, expert; default the config's, with its settings).",
+)
 config_flags.DEFINE_config_file(
   "config", None, "fit / sample / rollout: configs/<task>.py[:PRESETS].", lock_config=True
 )

@@ -1,12 +1,14 @@
 """Rollout throughput with the policy in the loop: a batch of environments, a freshly initialised
 policy of the config's size, and one exploration strategy. The compiled decision program is timed
 after its first (compiling) call; an untrained policy does not finish episodes, so every environment
-does real work throughout. `soe_steer` steers along the first `explore.steer.max_dims` (default 4)
-latent dimensions with the scripted chooser at every decision, so its figure is the cost of one
-steering decision."""
+does real work throughout. The strategy's settings are the config's when it names the same strategy
+(`configs/lift.py:cpu,soe_steer`), its defaults otherwise. `soe_steer` steers along the first
+`max_dims` (0: 4) latent dimensions with the scripted chooser at every decision, so its figure is the
+cost of one steering decision."""
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import jax
@@ -15,8 +17,9 @@ import numpy as np
 
 from soe_jax import checkpoint, rollout
 from soe_jax.envs import registry
-from soe_jax.explore import strategies
+from soe_jax.explore import registry as strategy_registry
 from soe_jax.policies import normalizer as normalizer_lib
+from soe_jax.policies.agent import Agent
 
 
 def run(config: ml_collections.ConfigDict, strategy: str, num_envs: int, decisions: int = 2, repeats: int = 3) -> dict:
@@ -26,15 +29,17 @@ def run(config: ml_collections.ConfigDict, strategy: str, num_envs: int, decisio
   rng = np.random.default_rng(0)
   obs = rng.uniform(-0.3, 1.1, (256, policy.obs_dim))
   actions = rng.uniform(-1, 1, (256, policy.action_dim))
-  agent = strategies.Agent(policy.init(jax.random.PRNGKey(0)), normalizer_lib.fit(obs, actions))
-  steer = config.explore.steer
-  if strategy == "soe_steer":
-    steer.every = 1
-  dims = tuple(range(min(steer.max_dims or 4, policy.p_net.latent_dim)))
-  strat = strategies.make_strategy(strategy, config.explore, env=env, dims=dims)
+  agent = Agent(policy, policy.init(jax.random.PRNGKey(0)), normalizer_lib.fit(obs, actions))
+  name = strategy or config.explore.strategy.name
+  settings = dict(config.explore.strategy.kwargs) if name == config.explore.strategy.name else {}
+  if name == "soe_steer":
+    settings["every"] = 1
+  strat = strategy_registry.make_strategy(name, env, **settings)
+  if name == "soe_steer":
+    strat = dataclasses.replace(strat, dims=tuple(range(min(strat.max_dims or 4, policy.p_net.latent_dim))))
   keys = jax.random.split(jax.random.PRNGKey(1), num_envs)
-  fn = rollout.decisions_fn(env, policy, strat, decisions)
-  carry = rollout.initial_carry(env, policy, keys)
+  fn = rollout.decisions_fn(env, strat, policy.n_action_steps, decisions)
+  carry = rollout.initial_carry(env, policy.n_obs_steps, keys)
   t = time.perf_counter()
   carry, out = fn(carry, agent, jax.random.PRNGKey(0))
   jax.block_until_ready(out)
@@ -51,12 +56,12 @@ def run(config: ml_collections.ConfigDict, strategy: str, num_envs: int, decisio
     bench="rollout",
     task=env.name,
     backend=env.backend,
-    strategy=strategy,
+    strategy=name,
     num_envs=num_envs,
     head=config.policy.head.name,
     down_dims=list(config.policy.head.kwargs.get("down_dims", [])),
-    steer_dims=len(dims) if strategy == "soe_steer" else 0,
-    proposals=steer.num_proposals if strategy == "soe_steer" else 0,
+    steer_dims=len(strat.dims) if name == "soe_steer" else 0,
+    proposals=strat.num_proposals if name == "soe_steer" else 0,
     env_steps_per_s=round(steps / per_call, 1),
     ms_per_chunk=round(1000 * per_call / decisions, 1),
     first_call_s=round(first, 1),

@@ -25,6 +25,8 @@ from brax.envs.base import Env, State
 from soe_jax.envs import controller, panda, physics, rotations
 
 POLICY_OBS_KEYS = ("robot0_eef_pos", "robot0_eef_quat", "robot0_gripper_qpos", "object")
+# Sizes of the policy's observation keys; `object` is the task's own (`ManipulationEnv.object_dim`).
+ROBOT_OBS_SIZES = {"robot0_eef_pos": 3, "robot0_eef_quat": 4, "robot0_gripper_qpos": 2}
 CONTROL_DT = 0.05  # 20 Hz
 PHYSICS_DT = 0.002
 AGENTVIEW = dict(pos="0.5 0 1.35", quat="0.653 0.271 0.271 0.653")
@@ -37,14 +39,30 @@ def base_config() -> ml_collections.ConfigDict:
       backend="auto",  # auto | mujoco | mjx
       action_mode="absolute",  # absolute (10-d) | delta (7-d)
       nsubsteps=25,  # physics substeps per 20 Hz control step
-      horizon=400,  # robomimic's evaluation horizon for lift / can / square
+      episode_length=400,  # control steps: robomimic's evaluation horizon for lift / can / square
     )
   )
 
 
-def policy_obs(obs: dict) -> jax.Array:
-  """The policy's observation vector: the four low-dim keys concatenated, (..., 19 or 23)."""
-  return jnp.concatenate([obs[k] for k in POLICY_OBS_KEYS], axis=-1)
+def policy_obs_size(object_dim: int) -> int:
+  """The policy's observation size for a task with an `object` vector of `object_dim` numbers."""
+  return sum(ROBOT_OBS_SIZES.values()) + object_dim
+
+
+def split_policy_obs(obs):
+  """(..., D) policy observations -> {key: (..., size)} in `POLICY_OBS_KEYS` order (`object` takes the rest)."""
+  out, start = {}, 0
+  for k in POLICY_OBS_KEYS:
+    size = ROBOT_OBS_SIZES.get(k, obs.shape[-1] - start)
+    out[k] = obs[..., start : start + size]
+    start += size
+  return out
+
+
+def policy_obs(obs: dict, xp=jnp) -> jax.Array:
+  """The policy's observation vector: the four low-dim keys concatenated, (..., 19 or 23); `xp=np` on
+  the host."""
+  return xp.concatenate([xp.asarray(obs[k], xp.float32) for k in POLICY_OBS_KEYS], axis=-1)
 
 
 class ManipulationEnv(Env):
@@ -62,7 +80,7 @@ class ManipulationEnv(Env):
     self.mj_model = mujoco.MjModel.from_xml_string(self.mjcf())
     self.kin = panda.Kinematics(self.base_pos)
     self.physics = physics.make_backend(self.config.backend, self.mj_model, self.config.nsubsteps)
-    self.horizon = int(self.config.horizon)
+    self.episode_length = int(self.config.episode_length)
 
   @classmethod
   def default_config(cls) -> ml_collections.ConfigDict:
@@ -107,7 +125,7 @@ class ManipulationEnv(Env):
 
   @property
   def observation_size(self) -> int:
-    return 9 + self.object_dim
+    return policy_obs_size(self.object_dim)
 
   @property
   def action_size(self) -> int:

@@ -24,7 +24,7 @@ import mujoco
 import numpy as np
 from flax import struct
 
-BACKENDS = ("auto", "mujoco", "mjx")
+from soe_jax.registry import Registry
 
 
 @struct.dataclass
@@ -38,16 +38,16 @@ class PhysicsState:
 
 def resolve_backend(name: str) -> str:
   """`auto` is `mujoco` on CPU and `mjx` on GPU/TPU."""
-  if name not in BACKENDS:
-    raise ValueError(f"unknown physics backend {name!r}; known: {', '.join(BACKENDS)}")
   if name == "auto":
     return "mujoco" if jax.default_backend() == "cpu" else "mjx"
+  if name not in BACKENDS.names():
+    raise ValueError(f"unknown physics backend {name!r}; known physics backends: auto, {', '.join(BACKENDS.names())}")
   return name
 
 
 def make_backend(name: str, model: mujoco.MjModel, nsubsteps: int):
-  name = resolve_backend(name)
-  return MujocoBackend(model, nsubsteps) if name == "mujoco" else MjxBackend(model, nsubsteps)
+  """Backend `name` (`auto`, `mujoco` or `mjx`) for `model`."""
+  return BACKENDS.make(resolve_backend(name), model, nsubsteps)
 
 
 class MjxBackend:
@@ -183,3 +183,8 @@ class MujocoBackend:
     """The exact MuJoCo state on the host, (..., nstate) float64."""
     bits = np.ascontiguousarray(jax.device_get(state.raw))
     return bits.view(np.float64)
+
+
+BACKENDS: Registry[MjxBackend | MujocoBackend] = Registry("physics backend")
+BACKENDS.register("mujoco", MujocoBackend)
+BACKENDS.register("mjx", MjxBackend)

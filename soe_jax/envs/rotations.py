@@ -58,25 +58,6 @@ def wxyz_to_xyzw(q: jnp.ndarray) -> jnp.ndarray:
   return jnp.concatenate([q[..., 1:], q[..., :1]], -1)
 
 
-def xyzw_to_wxyz(q: jnp.ndarray) -> jnp.ndarray:
-  return jnp.concatenate([q[..., 3:], q[..., :3]], -1)
-
-
-def quat_mul_wxyz(a: jnp.ndarray, b: jnp.ndarray) -> jnp.ndarray:
-  """Hamilton product a * b of wxyz quaternions."""
-  aw, ax, ay, az = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
-  bw, bx, by, bz = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
-  return jnp.stack(
-    [
-      aw * bw - ax * bx - ay * by - az * bz,
-      aw * bx + ax * bw + ay * bz - az * by,
-      aw * by - ax * bz + ay * bw + az * bx,
-      aw * bz + ax * by - ay * bx + az * bw,
-    ],
-    -1,
-  )
-
-
 def yaw_quat_wxyz(yaw: jnp.ndarray) -> jnp.ndarray:
   """Rotation about world z by `yaw` radians, as a wxyz quaternion."""
   h = 0.5 * yaw

@@ -9,7 +9,9 @@ import jax.numpy as jnp
 import numpy as np
 import tqdm
 
+from soe_jax.data import episodes
 from soe_jax.envs import manipulation
+from soe_jax.experts import registry as expert_registry
 from soe_jax.experts import script
 
 RECORDED_KEYS = manipulation.POLICY_OBS_KEYS + ("robot0_joint_pos",)
@@ -44,11 +46,11 @@ def run_demos(
   chunk: int = 50,
   progress: bool = True,
 ) -> dict:
-  """Demonstrations from the start states of `keys` (N, 2), each until success or the horizon.
+  """Demonstrations from the start states of `keys` (N, 2), each until success or the episode length.
 
   Returns numpy arrays: `obs` {key: (N, T, d)}, `actions` (N, T, 10), `states` (N, T, nq) scene joint
   positions, `length` (N,) actions taken up
-  to and including the successful step (the horizon if none), `success` (N,). Steps after an
+  to and including the successful step (the episode length if none), `success` (N,). Steps after an
   episode's end are padding.
   """
   keys = jnp.asarray(keys)
@@ -59,7 +61,7 @@ def run_demos(
   carry = (state, es, jnp.zeros(n, bool), jnp.zeros(n, jnp.int32))
   run = _chunk_fn(env, expert, chunk)
   records = []
-  num_chunks = -(-env.horizon // chunk)
+  num_chunks = -(-env.episode_length // chunk)
   bar = tqdm.tqdm(total=num_chunks * chunk, desc=f"{env.name} demos", unit="step", disable=not progress, leave=False)
   for _ in range(num_chunks):
     carry, rec = run(carry)
@@ -68,26 +70,28 @@ def run_demos(
     if bool(jax.device_get(carry[2]).all()):
       break
   bar.close()
-  obs = {k: np.concatenate([r[0][k] for r in records], 0).swapaxes(0, 1)[:, : env.horizon] for k in RECORDED_KEYS}
-  actions = np.concatenate([r[1] for r in records], 0).swapaxes(0, 1)[:, : env.horizon]
-  states = np.concatenate([r[3] for r in records], 0).swapaxes(0, 1)[:, : env.horizon]
+  obs = {
+    k: np.concatenate([r[0][k] for r in records], 0).swapaxes(0, 1)[:, : env.episode_length] for k in RECORDED_KEYS
+  }
+  actions = np.concatenate([r[1] for r in records], 0).swapaxes(0, 1)[:, : env.episode_length]
+  states = np.concatenate([r[3] for r in records], 0).swapaxes(0, 1)[:, : env.episode_length]
   done, length = jax.device_get(carry[2:])
-  return dict(obs=obs, actions=actions, states=states, length=np.minimum(length, env.horizon), success=np.asarray(done))
+  return dict(
+    obs=obs, actions=actions, states=states, length=np.minimum(length, env.episode_length), success=np.asarray(done)
+  )
 
 
 def split_episodes(batch: dict, only_successful: bool = True) -> list[dict]:
   """The batch from `run_demos` -> a list of episodes trimmed to their lengths."""
-  episodes = []
-  for i in range(batch["length"].shape[0]):
-    if only_successful and not batch["success"][i]:
-      continue
-    t = int(batch["length"][i])
-    episodes.append(
-      dict(
-        obs={k: v[i, :t] for k, v in batch["obs"].items()},
-        actions=batch["actions"][i, :t],
-        states=batch["states"][i, :t],
-        success=bool(batch["success"][i]),
-      )
-    )
-  return episodes
+  mask = batch["success"] if only_successful else None
+  return episodes.from_batch(batch["obs"], batch["actions"], batch["states"], batch["length"], batch["success"], mask)
+
+
+def demonstrations(env: manipulation.ManipulationEnv, num: int, seed: int, progress: bool = True) -> list[dict]:
+  """`num` successful scripted demonstrations, from the first start states of `seed` (2 * num tried)."""
+  keys = jax.random.split(jax.random.PRNGKey(seed), 2 * num)  # spare start states
+  batch = run_demos(env, expert_registry.make_expert(env.name), keys, progress=progress)
+  found = split_episodes(batch, only_successful=True)
+  if len(found) < num:
+    raise RuntimeError(f"the {env.name} demonstrator succeeded {len(found)} times in {2 * num} tries; need {num}")
+  return found[:num]

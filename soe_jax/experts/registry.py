@@ -3,20 +3,17 @@
 from __future__ import annotations
 
 from soe_jax.experts import can, lift, script, square
+from soe_jax.registry import Registry
 
-_EXPERTS: dict[str, script.ScriptedExpert] = {}
-
-
-def register_expert(name: str, expert: script.ScriptedExpert) -> None:
-  _EXPERTS[name] = expert
+EXPERTS: Registry[script.ScriptedExpert] = Registry("scripted demonstrator")
+register_expert = EXPERTS.register
 
 
 def make_expert(name: str) -> script.ScriptedExpert:
-  if name not in _EXPERTS:
-    raise ValueError(f"no scripted demonstrator for task {name!r}; known: {', '.join(sorted(_EXPERTS))}")
-  return _EXPERTS[name]
+  """The scripted demonstrator of task `name`."""
+  return EXPERTS.make(name)
 
 
-register_expert("lift", lift.EXPERT)
-register_expert("can", can.EXPERT)
-register_expert("square", square.EXPERT)
+register_expert("lift", lambda: lift.EXPERT)
+register_expert("can", lambda: can.EXPERT)
+register_expert("square", lambda: square.EXPERT)

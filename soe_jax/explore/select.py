@@ -1,6 +1,7 @@
-"""Which exploration episodes a round keeps (DESIGN.md data flow: "select successes").
+"""Which exploration episodes a round keeps (DESIGN.md data flow: "select successes"), by name
+(`rounds.select`).
 
-All take `success` (S, k): k tries from each of S start states, and return a (S, k) bool mask.
+Each takes `success` (S, k): k tries from each of S start states, and returns a (S, k) bool mask.
 - `first_success` (default): each start state's first successful try.
 - `all_successes`: every successful try.
 - `sime`: SIME's `train_0.5` selection (specs/sime_baseline.md): the successes of start states whose
@@ -11,22 +12,31 @@ from __future__ import annotations
 
 import numpy as np
 
-SELECTIONS = ("first_success", "all_successes", "sime")
+from soe_jax.registry import Registry
+
+SELECTIONS: Registry[np.ndarray] = Registry("selection")
 
 
-def check_name(how: str) -> None:
-  if how not in SELECTIONS:
-    raise ValueError(f"unknown selection {how!r}; known selections: {', '.join(SELECTIONS)}")
+def first_success(s: np.ndarray) -> np.ndarray:
+  first = np.zeros_like(s)
+  rows = np.flatnonzero(s.any(axis=1))
+  first[rows, s[rows].argmax(axis=1)] = True
+  return first
 
 
-def select(success, how: str = "first_success", sime_threshold: float = 0.5) -> np.ndarray:
-  check_name(how)
-  s = np.asarray(success, bool)
-  if how == "first_success":
-    first = np.zeros_like(s)
-    rows = np.flatnonzero(s.any(axis=1))
-    first[rows, s[rows].argmax(axis=1)] = True
-    return first
-  if how == "all_successes":
-    return s.copy()
-  return s & (s.mean(axis=1, keepdims=True) < sime_threshold)  # sime
+def all_successes(s: np.ndarray) -> np.ndarray:
+  return s.copy()
+
+
+def sime(s: np.ndarray, threshold: float = 0.5) -> np.ndarray:
+  return s & (s.mean(axis=1, keepdims=True) < threshold)
+
+
+SELECTIONS.register("first_success", first_success)
+SELECTIONS.register("all_successes", all_successes)
+SELECTIONS.register("sime", sime)
+
+
+def select(success, how: str = "first_success") -> np.ndarray:
+  """The (S, k) mask of the tries selection `how` keeps."""
+  return SELECTIONS.make(how, np.asarray(success, bool))

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from soe_jax import buffer as buffer_lib
 
@@ -20,11 +21,6 @@ def snr_db(mu: jax.Array, log_std: jax.Array) -> jax.Array:
   signal = jnp.var(mu, axis=0)
   noise = jnp.mean(jnp.exp(2.0 * log_std), axis=0)
   return 10.0 * jnp.log10(signal / noise)
-
-
-def effective_dims(snr: jax.Array, threshold_db: float = 0.0) -> jax.Array:
-  """(d,) bool: the dimensions whose SNR exceeds the threshold."""
-  return snr > threshold_db
 
 
 def dimension_proposals(
@@ -60,19 +56,21 @@ def farthest_point_sampling(paths: jax.Array, num: int, first: int = 0) -> jax.A
   return jnp.concatenate([jnp.array([first]), rest])
 
 
-def latent_snr(policy, agent, obs_history: jax.Array) -> jax.Array:
-  """(d,) SNR in dB of the policy's latent over raw observation histories (N, To, D)."""
-  cond = policy.encode(agent.params, agent.normalizer.normalize_obs(obs_history))
-  return snr_db(*policy.latent(agent.params, cond))
+def latent_snr(agent, obs_history: jax.Array) -> jax.Array:
+  """(d,) SNR in dB of an agent's latent over raw observation histories (N, To, D)."""
+  return snr_db(*agent.latent(obs_history))
 
 
-def buffer_snr(policy, agent, buf, key: jax.Array, num_windows: int) -> jax.Array:
+def buffer_snr(agent, buf, key: jax.Array, num_windows: int) -> jax.Array:
   """(d,) SNR in dB over `num_windows` observation histories sampled from an episode buffer."""
-  windows = buffer_lib.sample_windows(buf, key, num_windows, policy.horizon, policy.n_obs_steps, policy.n_action_steps)
-  return latent_snr(policy, agent, windows["obs"])
+  p = agent.policy
+  windows = buffer_lib.sample_windows(buf, key, num_windows, p.horizon, p.n_obs_steps, p.n_action_steps)
+  return latent_snr(agent, windows["obs"])
 
 
-def steering_dims(snr: jax.Array, threshold_db: float = 0.0, max_dims: int | None = None) -> tuple[int, ...]:
-  """The effective dimensions, highest SNR first (at most `max_dims` of them)."""
-  order = [int(i) for i in jnp.argsort(-snr) if float(snr[i]) > threshold_db]
+def effective_dims(snr, threshold_db: float = 0.0, max_dims: int | None = None) -> tuple[int, ...]:
+  """The effective dimensions, SNR above `threshold_db`, highest SNR first (at most `max_dims` of them;
+  their count uncapped is the paper's number of effective dimensions)."""
+  snr = np.asarray(snr)
+  order = [int(i) for i in np.argsort(-snr, kind="stable") if float(snr[i]) > threshold_db]
   return tuple(order[:max_dims] if max_dims else order)

@@ -20,7 +20,7 @@ import ml_collections
 
 from soe_jax.policies import registry
 from soe_jax.policies.heads.base import Head
-from soe_jax.policies.nets import encoders, vib
+from soe_jax.policies.nets import vib
 
 # Named key streams: the same stream serves L_IL whether or not the bypass is trained.
 _KEY_IL, _KEY_IB, _KEY_Z, _KEY_ENC = 0, 1, 2, 3
@@ -102,7 +102,7 @@ def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int
   head = registry.make_head(
     config.head.name, action_dim=action_dim, horizon=config.horizon, **config.head.get("kwargs", {})
   )
-  encoder = encoders.make_encoder(config.encoder.name, **config.encoder.get("kwargs", {}))
+  encoder = registry.make_encoder(config.encoder.name, **config.encoder.get("kwargs", {}))
   example = jnp.zeros((1, config.n_obs_steps, obs_dim))
   if config.encoder.name == "image":
     size = config.encoder.get("image_size", 84)

@@ -2,28 +2,30 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import flax.linen as nn
 
 from soe_jax.policies.heads import diffusion_unet, flow_unet, mlp
 from soe_jax.policies.heads.base import Head
+from soe_jax.policies.nets import encoders
+from soe_jax.registry import Registry
 
-_HEADS: dict[str, Callable[..., Head]] = {}
-
-
-def register_head(name: str, factory: Callable[..., Head]) -> None:
-  _HEADS[name] = factory
-
-
-def head_names() -> list[str]:
-  return sorted(_HEADS)
+HEADS: Registry[Head] = Registry("head")
+register_head = HEADS.register
+head_names = HEADS.names
+ENCODERS: Registry[nn.Module] = Registry("observation encoder")
+register_encoder = ENCODERS.register
 
 
 def make_head(name: str, action_dim: int, horizon: int, **kwargs) -> Head:
-  if name not in _HEADS:
-    raise ValueError(f"unknown head {name!r}; known heads: {', '.join(head_names())}")
-  return _HEADS[name](action_dim=action_dim, horizon=horizon, **kwargs)
+  return HEADS.make(name, action_dim=action_dim, horizon=horizon, **kwargs)
+
+
+def make_encoder(name: str, **kwargs) -> nn.Module:
+  return ENCODERS.make(name, **kwargs)
 
 
 register_head("diffusion_unet", diffusion_unet.make)
 register_head("flow_unet", flow_unet.make)
 register_head("mlp", mlp.make)
+register_encoder("lowdim", encoders.LowDimEncoder)
+register_encoder("image", encoders.ImageEncoder)

@@ -64,7 +64,7 @@ function render(v) {
   view = v;
   document.getElementById("title").textContent = `round ${v.round}`;
   document.getElementById("status").innerHTML =
-    `step <span id="step">${v.step}</span> / ${v.horizon}` + (v.success ? " &mdash; <b id='success'>success</b>" : "") +
+    `step <span id="step">${v.step}</span> / ${v.episode_length}` + (v.success ? " &mdash; <b id='success'>success</b>" : "") +
     (v.finished ? " &mdash; episode over" : "") + ` &mdash; saved episodes: <span id="saved">${v.saved}</span>`;
   const img = document.getElementById("frame");
   img.src = "/api/frame.png?t=" + Date.now();

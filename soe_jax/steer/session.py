@@ -19,10 +19,15 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from soe_jax import checkpoint, loop
+from soe_jax import checkpoint
 from soe_jax.data import hdf5
+from soe_jax.data.episodes import EpisodeSet, build_buffer
 from soe_jax.envs import manipulation
-from soe_jax.explore import steering, strategies
+from soe_jax.envs import registry as env_registry
+from soe_jax.explore import registry as strategy_registry
+from soe_jax.explore import steering
+from soe_jax.policies import agent as agent_lib
+from soe_jax.rundir import RunDir
 
 IMAGE_SIZE = 384
 
@@ -31,44 +36,29 @@ class SteeringError(ValueError):
   """A request the session refuses; nothing was changed."""
 
 
-def steered_path(workdir: str, r: int) -> str:
-  """Where episodes steered with round r's policy go (`loop.steered_episodes` reads them)."""
-  return os.path.join(workdir, "data", f"steered_round_{r}.hdf5")
-
-
 class SteeringSession:
   def __init__(self, workdir: str, round_: int | None = None, seed: int = 0, image_size: int = IMAGE_SIZE):
-    self.workdir = os.path.abspath(workdir)
-    self.config = loop.load_config(self.workdir)
-    self.round = loop.last_round(self.config, self.workdir) if round_ is None else int(round_)
-    loaded = checkpoint.load(loop.checkpoint_dir(self.config, self.workdir, self.round))
-    self.policy, self.agent = loaded.policy, strategies.Agent.from_state(loaded.state)
+    self.run = RunDir.open(workdir)
+    self.workdir, self.config = self.run.path, self.run.config
+    self.round = self.run.last_round() if round_ is None else int(round_)
+    loaded = checkpoint.load(self.run.checkpoint_dir(self.round))
+    self.policy, self.agent = loaded.policy, loaded.agent
     env_config = self.config.env.copy_and_resolve_references()
-    env_config.backend = "mujoco"
-    self.env = loop.task_env(env_config.to_json())
+    env_config.backend = "mujoco"  # one environment, stepped and rendered in the C engine
+    self.env = env_registry.env_from_config(env_config)
     self.lock = threading.Lock()
     self._step = jax.jit(jax.vmap(self.env.step))
     self._reset = jax.jit(jax.vmap(self.env.reset))
-    steer = self.config.explore.steer
+    # Steering with the run's own settings where it has them (a soe_steer run), soe_steer's otherwise.
+    known = strategy_registry.default_settings("soe_steer")
+    settings = {k: v for k, v in self.config.explore.strategy.kwargs.items() if k in known}
+    self.steer = strategy_registry.make_strategy("soe_steer", self.env, **settings)
     self._candidates = jax.jit(
-      lambda agent, hist, key, dim: strategies.steering_candidates(
-        self.policy,
-        agent,
-        hist,
-        key,
-        (dim,),
-        float(self.config.explore.alpha),
-        int(steer.num_proposals),
-        int(steer.num_choices),
-      ),
-      static_argnums=3,
+      lambda agent, hist, key, dim: self.steer.candidates(agent, hist, key, (dim,)), static_argnums=3
     )
-    demos, _ = hdf5.read_episodes(loop.demonstrations_path(self.config, self.workdir))
-    buf = loop.build_buffer(self.config, self.policy, [(demos, 0)])
-    self.snr = np.asarray(
-      steering.buffer_snr(self.policy, self.agent, buf, jax.random.PRNGKey(0), int(steer.snr_windows))
-    )
-    self.dims = steering.steering_dims(jnp.asarray(self.snr), float(steer.threshold_db)) or (int(np.argmax(self.snr)),)
+    buf = build_buffer(self.config, self.policy, [EpisodeSet(self.run.demonstrations(), 0)])
+    self.snr = np.asarray(self.steer.snr(self.agent, buf, jax.random.PRNGKey(0)))
+    self.dims = steering.effective_dims(self.snr, self.steer.threshold_db) or (int(np.argmax(self.snr)),)
     self.image_size = image_size
     self.renderer = None  # made on first use, on the thread that renders
     self.data = mujoco.MjData(self.env.mj_model)
@@ -80,8 +70,7 @@ class SteeringSession:
     self.seed = int(seed)
     self.key = jax.random.fold_in(jax.random.PRNGKey(int(self.config.seed) + 7), self.seed)
     self.state = self._reset(jax.random.split(jax.random.PRNGKey(self.seed), 1))
-    obs = manipulation.policy_obs(self.state.obs)
-    self.hist = jnp.repeat(obs[:, None], self.policy.n_obs_steps, axis=1)
+    self.hist = agent_lib.initial_history(manipulation.policy_obs(self.state.obs), self.policy.n_obs_steps)
     self.episode = dict(obs=[], actions=[], states=[])
     self.eef = [np.asarray(self.state.obs["robot0_eef_pos"][0])]
     self.success = False
@@ -127,15 +116,14 @@ class SteeringSession:
       self.episode["states"].append(np.asarray(self.state.pipeline_state.qpos[0]))
       self.episode["actions"].append(np.asarray(action))
       self.state = self._step(self.state, jnp.asarray(action)[None])
-      obs = manipulation.policy_obs(self.state.obs)
-      self.hist = jnp.concatenate([self.hist[:, 1:], obs[:, None]], axis=1)
+      self.hist = agent_lib.push_history(self.hist, manipulation.policy_obs(self.state.obs))
       self.eef.append(np.asarray(self.state.obs["robot0_eef_pos"][0]))
       if bool(self.state.metrics["success"][0] > 0):
         self.success = True
         break
     self.decision += 1
     self.proposal_set = None
-    self.finished = self.success or len(self.episode["actions"]) >= self.env.horizon
+    self.finished = self.success or len(self.episode["actions"]) >= self.env.episode_length
     return self.view()
 
   def finish(self) -> dict:
@@ -148,12 +136,12 @@ class SteeringSession:
     self._check_round(round_)
     if not self.episode["actions"]:
       raise SteeringError("nothing to save: execute at least one proposal first")
-    path = steered_path(self.workdir, self.round)
+    path = self.run.steered_path(self.round)
     episodes = hdf5.read_episodes(path)[0] if os.path.exists(path) else []
     obs = np.stack(self.episode["obs"])
     episodes.append(
       dict(
-        obs=loop.split_policy_obs(obs),
+        obs=manipulation.split_policy_obs(obs),
         actions=np.stack(self.episode["actions"]),
         states=np.stack(self.episode["states"]),
         success=self.success,
@@ -203,7 +191,7 @@ class SteeringSession:
     return dict(
       round=self.round,
       step=len(self.episode["actions"]),
-      horizon=self.env.horizon,
+      episode_length=self.env.episode_length,
       success=self.success,
       finished=self.finished,
       saved=self.saved,

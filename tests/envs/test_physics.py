@@ -5,7 +5,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from soe_jax.envs import make_env, rotations, wrap_env
+from soe_jax.envs import env_names, make_env, rotations, wrap_env
 
 
 def _hold(obs):
@@ -71,7 +71,7 @@ def _scripted_motion(obs0, t):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("task", ["lift", "can", "square"])
+@pytest.mark.parametrize("task", env_names())
 def test_backends_agree_on_a_scripted_motion(task):
   """Same start state, same 50 actions: the end-effector paths on MJX and the C engine agree."""
   paths = {}

@@ -5,10 +5,10 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from soe_jax.envs import can, lift, make_env, rotations, square
+from soe_jax.envs import can, env_names, lift, make_env, rotations, square
 from soe_jax.envs.manipulation import policy_obs
 
-TASKS = ("lift", "can", "square")
+TASKS = env_names()
 OBS_SIZES = {"lift": 19, "can": 23, "square": 23}
 
 
@@ -124,5 +124,5 @@ def test_bad_action_shape_says_expected_shape(jitted_env):
 
 
 def test_unknown_backend_lists_known_ones():
-  with pytest.raises(ValueError, match="known: auto, mujoco, mjx"):
+  with pytest.raises(ValueError, match="known physics backends: auto, mjx, mujoco"):
     make_env("lift", backend="gpu")

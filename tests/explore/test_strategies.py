@@ -8,8 +8,9 @@ import ml_collections
 import numpy as np
 import pytest
 
-from soe_jax.explore import steering, strategies
+from soe_jax.explore import registry, sime, steer, steering
 from soe_jax.policies import normalizer as normalizer_lib
+from soe_jax.policies.agent import Agent
 from soe_jax.policies.policy import make_policy
 
 OBS_DIM, ACTION_DIM = 5, 10
@@ -34,7 +35,7 @@ def _agent(policy, obs_span=2.0):
   rng = np.random.default_rng(0)
   obs = rng.uniform(0, obs_span, (200, OBS_DIM)) * np.arange(1, OBS_DIM + 1)  # a different range per dim
   actions = rng.uniform(-1, 1, (200, ACTION_DIM))
-  return strategies.Agent(policy.init(jax.random.PRNGKey(0)), normalizer_lib.fit(obs, actions, margin=0.0))
+  return Agent(policy, policy.init(jax.random.PRNGKey(0)), normalizer_lib.fit(obs, actions, margin=0.0))
 
 
 def test_sime_schedule_matches_the_spec():
@@ -43,10 +44,10 @@ def test_sime_schedule_matches_the_spec():
   policy = _policy(steps=20)
   u = jnp.stack([policy.head.progress(i) for i in range(20)])
   np.testing.assert_allclose(u, np.arange(1, 21) * 0.05, atol=1e-6)
-  std = strategies.sime_noise_std(u, 0.01)
+  std = sime.noise_std(u, 0.01)
   np.testing.assert_allclose(np.asarray(std)[[0, 1, 9, 19]], [0.0005, 0.001, 0.005, 0.01], atol=1e-7)
   # The general CADS ramp: 1 below tau1, 0 above tau2, linear in between.
-  g = strategies.sime_gamma(jnp.array([0.1, 0.2, 0.5, 0.8, 0.9]), tau1=0.2, tau2=0.8)
+  g = sime.gamma(jnp.array([0.1, 0.2, 0.5, 0.8, 0.9]), tau1=0.2, tau2=0.8)
   np.testing.assert_allclose(g, [1.0, 1.0, 0.5, 0.0, 0.0], atol=1e-6)
   # DDPM visits every timestep 99 .. 0.
   ddpm = _policy(sampler="ddpm")
@@ -56,7 +57,7 @@ def test_sime_schedule_matches_the_spec():
 def test_sime_noise_is_raw_scale_converted_per_dimension():
   policy = _policy()
   agent = _agent(policy)
-  cond_fn = strategies.sime_cond_fn(policy, agent.normalizer, scale=0.01)
+  cond_fn = sime.cond_fn(policy, agent.normalizer, scale=0.01)
   cond = jnp.zeros((20000, policy.cond_dim))
   for i in (0, 4, 9):
     noise = cond_fn(cond, i, jax.random.PRNGKey(i))
@@ -74,7 +75,7 @@ def test_soe_alpha_zero_is_the_mean_path_and_alpha_spreads():
   key = jax.random.PRNGKey(4)
 
   def chunk(alpha):
-    return strategies.make_strategy("soe", ml_collections.ConfigDict(dict(alpha=alpha)))(policy, agent, obs, None, key)
+    return registry.make_strategy("soe", alpha=alpha)(agent, obs, None, key)
 
   zero, aux = chunk(0.0)
   # alpha = 0: the chunk of the exploration path's mean, z = mu, decoded with the same head noise.
@@ -82,7 +83,7 @@ def test_soe_alpha_zero_is_the_mean_path_and_alpha_spreads():
   mu, _ = policy.latent(agent.params, policy.encode(agent.params, obs_n))
   _, key_head = jax.random.split(key)
   mean_actions, _ = policy.head.sample(agent.params["head"], policy.decode_latent(agent.params, mu), key_head)
-  expected = strategies.executed(policy, agent.normalizer.unnormalize_actions(mean_actions))
+  expected = agent.executed(agent.normalizer.unnormalize_actions(mean_actions))
   np.testing.assert_allclose(zero, expected, atol=1e-5)
   np.testing.assert_allclose(aux["z"], mu, atol=1e-6)
   # Larger alpha: further from the mean path, with the same keys.
@@ -90,18 +91,18 @@ def test_soe_alpha_zero_is_the_mean_path_and_alpha_spreads():
   assert 0 < spread[0] < spread[1] < spread[2]
 
 
-def test_none_and_sime_use_the_base_path():
+def test_dp_and_sime_use_the_base_path():
   policy = _policy()
   agent = _agent(policy)
   obs = jax.random.uniform(jax.random.PRNGKey(3), (4, 2, OBS_DIM), minval=0, maxval=2)
   key = jax.random.PRNGKey(5)
-  base, _ = strategies.make_strategy("none")(policy, agent, obs, None, key)
+  base, _ = registry.make_strategy("dp")(agent, obs, None, key)
   assert base.shape == (4, policy.n_action_steps, ACTION_DIM)
   full = agent.normalizer.unnormalize_actions(policy.sample(agent.params, agent.normalizer.normalize_obs(obs), key))
   np.testing.assert_allclose(base, full[:, 1:9], atol=1e-6)  # Diffusion Policy executes chunk[To-1 : To-1+Ta]
-  tiny = strategies.Sime(scale=1e-9)(policy, agent, obs, None, key)[0]
+  tiny = sime.Sime(scale=1e-9)(agent, obs, None, key)[0]
   np.testing.assert_allclose(tiny, base, atol=1e-4)
-  big = strategies.Sime(scale=1.0)(policy, agent, obs, None, key)[0]
+  big = sime.Sime(scale=1.0)(agent, obs, None, key)[0]
   assert float(jnp.max(jnp.abs(big - base))) > 1e-3
 
 
@@ -109,8 +110,8 @@ def test_steering_candidates_vary_one_dimension_and_are_distinct():
   policy = _policy()
   agent = _agent(policy)
   obs = jax.random.uniform(jax.random.PRNGKey(3), (3, 2, OBS_DIM), minval=0, maxval=2)
-  cands, dim_of = strategies.steering_candidates(
-    policy, agent, obs, jax.random.PRNGKey(0), (2, 0), alpha=2.0, num_proposals=12, num_choices=4
+  cands, dim_of = steer.candidates(
+    agent, obs, jax.random.PRNGKey(0), (2, 0), alpha=2.0, num_proposals=12, num_choices=4
   )
   assert cands.shape == (3, 8, policy.n_action_steps, ACTION_DIM)
   np.testing.assert_array_equal(dim_of, [2, 2, 2, 2, 0, 0, 0, 0])
@@ -132,27 +133,61 @@ def test_steer_picks_the_candidate_the_chooser_names_and_only_every_kth_decision
       b, c = candidates.shape[:2]
       return jnp.full(b, c - 1), jnp.zeros(b)
 
-  steer = strategies.Steer(chooser=Last(), dims=(1,), num_proposals=8, num_choices=3, every=2)
+  steering_strategy = steer.SoeSteer(chooser=Last(), dims=(1,), num_proposals=8, num_choices=3, every=2)
   key = jax.random.PRNGKey(9)
   state = lambda step: type("S", (), {"info": {"steps": jnp.full(2, step)}})()
-  chunk, aux = steer(policy, agent, obs, state(0), key)
+  chunk, aux = steering_strategy(agent, obs, state(0), key)
   _, key_steer, _ = jax.random.split(key, 3)
-  cands, _ = strategies.steering_candidates(policy, agent, obs, key_steer, (1,), 2.0, 8, 3)
+  cands, _ = steer.candidates(agent, obs, key_steer, (1,), 2.0, 8, 3)
   np.testing.assert_allclose(chunk, cands[:, -1], atol=1e-4)
   assert aux["steered"].all() and (aux["dim"] == 1).all()
-  chunk, aux = steer(policy, agent, obs, state(8), key)  # decision 1 of every 2: the base path
+  chunk, aux = steering_strategy(agent, obs, state(8), key)  # decision 1 of every 2: the base path
   assert not aux["steered"].any() and (aux["dim"] == -1).all()
 
 
 def test_effective_dims_are_ordered_by_snr():
   snr = jnp.array([1.0, -3.0, 5.0, 0.5])
-  assert steering.steering_dims(snr) == (2, 0, 3)
-  assert steering.steering_dims(snr, max_dims=2) == (2, 0)
-  assert steering.steering_dims(snr, threshold_db=2.0) == (2,)
+  assert steering.effective_dims(snr) == (2, 0, 3)
+  assert steering.effective_dims(snr, max_dims=2) == (2, 0)
+  assert steering.effective_dims(snr, threshold_db=2.0) == (2,)
+
+
+def test_steering_prepare_picks_the_effective_dims_of_the_data():
+  from soe_jax import buffer
+
+  policy = _policy()
+  agent = _agent(policy)
+  rng = np.random.default_rng(1)
+  buf = buffer.create(4, 30, OBS_DIM, ACTION_DIM)
+  buf = buffer.add(
+    buf, rng.uniform(0, 2, (4, 30, OBS_DIM)), np.zeros((4, 30, ACTION_DIM)), np.full(4, 30), np.ones(4, bool), 0
+  )
+  strategy = steer.SoeSteer(chooser=None, max_dims=2, snr_windows=64)
+  prepared, record = strategy.prepare(agent, buf, jax.random.PRNGKey(0))
+  snr = strategy.snr(agent, buf, jax.random.PRNGKey(0))
+  assert prepared.dims == steering.effective_dims(snr, 0.0, 2) and record["steer_dims"] == list(prepared.dims)
+  assert len(record["snr_db"]) == policy.p_net.latent_dim
+  assert registry.make_strategy("soe").prepare(agent, buf, jax.random.PRNGKey(0)) == (registry.make_strategy("soe"), {})
+
+
+@pytest.mark.parametrize("name", registry.strategy_names())
+def test_every_strategy_is_built_from_its_default_settings_and_refuses_others(name):
+  settings = registry.default_settings(name)
+  strategy = registry.make_strategy(name, _env(), **settings)
+  assert strategy.name == name
+  assert all(getattr(strategy, k) == v for k, v in settings.items())
+  with pytest.raises(ValueError, match=f"strategy '{name}' has no setting 'speed'; its settings: "):
+    registry.make_strategy(name, _env(), speed=1.0)
+
+
+def _env():
+  from soe_jax.envs import make_env
+
+  return make_env("lift")
 
 
 def test_unknown_strategy_lists_the_known_ones():
-  with pytest.raises(ValueError, match="known strategies: none, sime, soe, soe_steer, expert"):
-    strategies.make_strategy("noise")
-  with pytest.raises(ValueError, match="needs the task's environment"):
-    strategies.make_strategy("soe_steer")
+  with pytest.raises(ValueError, match="known strategies: dp, expert, sime, soe, soe_steer"):
+    registry.make_strategy("noise")
+  with pytest.raises(ValueError, match="needs its environment"):
+    registry.make_strategy("soe_steer")

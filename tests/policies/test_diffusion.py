@@ -83,7 +83,7 @@ def test_diffusion_head_samples_both_modes_of_a_bimodal_target():
     updates, opt = tx.update(g, opt)
     return optax.apply_updates(params, updates), opt, loss
 
-  for i in range(400):
+  for i in range(800):
     params, opt, _ = step(params, opt, jax.random.PRNGKey(i))
   samples, _ = jax.jit(head.sample)(params, jnp.zeros((400, 1)), jax.random.PRNGKey(99))
   x = np.asarray(samples[:, :, 0].mean(1))

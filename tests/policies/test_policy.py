@@ -34,7 +34,7 @@ def _batch(key, b=8, obs_dim=5, action_dim=3):
   return {"obs": obs, "actions": actions}
 
 
-@pytest.mark.parametrize("head", ["diffusion_unet", "flow_unet", "mlp"])
+@pytest.mark.parametrize("head", registry.head_names())
 def test_cross_gradients_are_exactly_zero(head):
   policy = make_policy(_config(head), 5, 3)
   params = policy.init(jax.random.PRNGKey(0))
@@ -94,7 +94,7 @@ def test_unknown_head_lists_known_ones():
     registry.make_head("transformer", action_dim=3, horizon=16)
 
 
-@pytest.mark.parametrize("head", ["diffusion_unet", "flow_unet", "mlp"])
+@pytest.mark.parametrize("head", registry.head_names())
 def test_every_head_samples_both_paths(head):
   policy = make_policy(_config(head), 5, 3)
   params = policy.init(jax.random.PRNGKey(0))

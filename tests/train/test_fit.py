@@ -14,6 +14,7 @@ from configs import lift
 from soe_jax import buffer as buffer_lib
 from soe_jax import checkpoint, fit, train_state
 from soe_jax.policies import normalizer
+from soe_jax.policies.agent import Agent
 from soe_jax.policies.policy import make_policy
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -58,8 +59,10 @@ def test_checkpoint_restores_to_identical_samples(tmp_path):
   checkpoint.save(str(tmp_path / "ckpt"), state, config)
   loaded = checkpoint.load(str(tmp_path / "ckpt"))
   obs = jnp.asarray(np.asarray(buf.obs[:3, :2]))
-  direct = checkpoint.LoadedPolicy(policy, state, config).act(obs, jax.random.PRNGKey(5))
-  np.testing.assert_array_equal(loaded.act(obs, jax.random.PRNGKey(5)), direct)
+  direct = Agent.from_state(policy, state).act(obs, jax.random.PRNGKey(5))
+  acted = loaded.agent.act(obs, jax.random.PRNGKey(5))
+  assert acted.shape == (3, policy.n_action_steps, policy.action_dim)  # the executed actions
+  np.testing.assert_array_equal(acted, direct)
   assert int(loaded.state.step) == 20
   with pytest.raises(FileNotFoundError, match="config.json"):
     checkpoint.load(str(tmp_path / "missing"))

@@ -10,19 +10,10 @@ from __future__ import annotations
 
 import flax.linen as nn
 
-from soe_jax.policies.nets.resnet import ImageEncoder
+from soe_jax.policies.nets.resnet import ImageEncoder  # noqa: F401  (registered with LowDimEncoder)
 
 
 class LowDimEncoder(nn.Module):
   @nn.compact
   def __call__(self, obs, train: bool = False):
     return obs.reshape(obs.shape[:-2] + (obs.shape[-2] * obs.shape[-1],))
-
-
-ENCODERS = {"lowdim": LowDimEncoder, "image": ImageEncoder}
-
-
-def make_encoder(name: str, **kwargs) -> nn.Module:
-  if name not in ENCODERS:
-    raise ValueError(f"unknown observation encoder {name!r}; known: {', '.join(sorted(ENCODERS))}")
-  return ENCODERS[name](**kwargs)

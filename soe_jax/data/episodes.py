@@ -1,0 +1,72 @@
+"""Episodes between their three forms: padded batches (rollouts, demonstrations), lists of episodes
+(what HDF5 files hold: {"obs": {key: (T, .)}, "actions" (T, A), "states" (T, nq), "success"}), and the
+fixed-capacity training buffer.
+
+An `EpisodeSet` is one group of episodes with its provenance: `source` 0 for demonstrations, r for
+exploration round r, and `steered` for episodes a person steered on the steering page.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import ml_collections
+import numpy as np
+
+from soe_jax import buffer as buffer_lib
+from soe_jax.envs import manipulation
+
+
+class EpisodeSet(NamedTuple):
+  episodes: list[dict]
+  source: int
+  steered: bool = False
+
+
+def from_batch(obs: dict, actions, states, length, success, mask=None) -> list[dict]:
+  """Padded arrays (N, H, ...) with lengths (N,) -> the episodes where `mask` (N,) is set (default all),
+  trimmed to their lengths."""
+  keep = np.ones(len(length), bool) if mask is None else np.asarray(mask, bool)
+  out = []
+  for i in np.flatnonzero(keep):
+    t = int(length[i])
+    out.append(
+      dict(
+        obs={k: v[i, :t] for k, v in obs.items()},
+        actions=actions[i, :t],
+        states=states[i, :t],
+        success=bool(success[i]),
+      )
+    )
+  return out
+
+
+def from_rollout(out: dict, mask) -> list[dict]:
+  """The episodes of a rollout's output (`rollout.rollout`) where `mask` (N,) is set."""
+  obs = manipulation.split_policy_obs(out["obs"])
+  return from_batch(obs, out["actions"], out["qpos"], out["length"], out["success"], mask)
+
+
+def policy_episode(ep: dict) -> dict:
+  """An episode -> {"policy_obs" (T, D), "actions" (T, A)} for the buffer."""
+  return {"policy_obs": manipulation.policy_obs(ep["obs"], xp=np), "actions": np.asarray(ep["actions"], np.float32)}
+
+
+def policy_frames(episodes: list[dict]) -> tuple[np.ndarray, np.ndarray]:
+  """All frames of `episodes`: (policy observations (N, D), actions (N, A)), e.g. for the normaliser."""
+  flat = [policy_episode(e) for e in episodes]
+  return np.concatenate([e["policy_obs"] for e in flat]), np.concatenate([e["actions"] for e in flat])
+
+
+def build_buffer(config: ml_collections.ConfigDict, policy, sets: list[EpisodeSet]) -> buffer_lib.EpisodeBuffer:
+  """A buffer of `config.data.capacity` episodes of at most `config.data.max_length` steps holding `sets`."""
+  buf = buffer_lib.create(int(config.data.capacity), int(config.data.max_length), policy.obs_dim, policy.action_dim)
+  total = sum(len(s.episodes) for s in sets)
+  if total > buf.capacity:
+    raise ValueError(f"{total} episodes do not fit in data.capacity={buf.capacity}; raise it")
+  for s in sets:
+    if s.episodes:
+      n = len(s.episodes)
+      p = buffer_lib.pad_episodes([policy_episode(e) for e in s.episodes], buf.max_length)
+      buf = buffer_lib.add(buf, p["obs"], p["actions"], p["length"], np.ones(n, bool), s.source, np.full(n, s.steered))
+  return buf

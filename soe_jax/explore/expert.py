@@ -1,0 +1,51 @@
+"""`expert`: the task's scripted demonstrator resumed from the current state (an oracle; for tests and
+as a ceiling, not a method), and `demonstrate`, which the scripted chooser also follows."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+
+from soe_jax.envs import manipulation
+from soe_jax.experts import registry as expert_registry
+from soe_jax.experts import script
+from soe_jax.types import Strategy
+
+
+def demonstrate(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, env_state, num_steps: int):
+  """The demonstrator's next `num_steps` actions (B, num_steps, A) from each environment's current
+  state, resumed at the phase the scene shows, simulated on a copy of the state. Its random
+  parameters come from the episode's reset key (as in the demonstrations), so they stay fixed."""
+  expert_keys = jax.vmap(lambda k: jax.random.fold_in(k, 1))(env_state.info["rng"])
+  es = jax.vmap(lambda o, k: expert.init(o, k, resume=True))(env_state.obs, expert_keys)
+  step, act = jax.vmap(env.step), jax.vmap(expert.act)
+
+  def body(carry, _):
+    state, es = carry
+    action, es = act(es, state.obs)
+    return (step(state, action), es), action
+
+  _, actions = jax.lax.scan(body, (env_state, es), None, length=num_steps)
+  return actions.swapaxes(0, 1)
+
+
+def task_env(strategy: str, env: manipulation.ManipulationEnv | None) -> manipulation.ManipulationEnv:
+  if env is None:
+    raise ValueError(f"strategy {strategy!r} follows the task's demonstrator and needs its environment (env=...)")
+  return env
+
+
+@dataclasses.dataclass(frozen=True)
+class Expert(Strategy):
+  env: manipulation.ManipulationEnv = dataclasses.field(default=None, metadata=dict(setting=False))
+  expert: script.ScriptedExpert = dataclasses.field(default=None, metadata=dict(setting=False))
+  name = "expert"
+
+  @classmethod
+  def create(cls, env=None, **settings):
+    env = task_env(cls.name, env)
+    return cls(env=env, expert=expert_registry.make_expert(env.name), **settings)
+
+  def __call__(self, agent, obs_history, env_state, key):
+    return demonstrate(self.env, self.expert, env_state, agent.policy.n_action_steps), {}

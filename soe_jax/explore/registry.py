@@ -1,0 +1,46 @@
+"""Exploration strategies by name (`explore.strategy.name` in configs, with its settings in
+`explore.strategy.kwargs`). Adding one: a file with a `Strategy` dataclass (imitate `soe.py`) and a
+line below."""
+
+from __future__ import annotations
+
+import dataclasses
+
+from soe_jax.envs import manipulation
+from soe_jax.explore import dp, expert, sime, soe, steer
+from soe_jax.registry import Registry
+from soe_jax.types import Strategy
+
+STRATEGIES: Registry[type[Strategy]] = Registry("exploration strategy", "strategies")
+register_strategy = STRATEGIES.register
+strategy_names = STRATEGIES.names
+
+
+def default_settings(name: str) -> dict:
+  """Strategy `name`'s settings with their defaults (its dataclass fields marked as settings)."""
+  cls = STRATEGIES.factory(name)
+  return {f.name: f.default for f in dataclasses.fields(cls) if f.init and f.metadata.get("setting", True)}
+
+
+def make_strategy(name: str, env: manipulation.ManipulationEnv | None = None, **settings) -> Strategy:
+  """Strategy `name` with `settings` (the rest at their defaults); `soe_steer` and `expert` follow the
+  task's demonstrator and need the task's `env`."""
+  check_settings(name, settings)
+  return STRATEGIES.factory(name).create(env, **settings)
+
+
+def check_settings(name: str, settings) -> None:
+  """Refuse an unknown strategy, or settings it does not have, listing what it has."""
+  known = default_settings(name)
+  unknown = sorted(set(settings) - set(known))
+  if unknown:
+    raise ValueError(
+      f"strategy {name!r} has no setting {', '.join(map(repr, unknown))}; its settings: {', '.join(known) or 'none'}"
+    )
+
+
+register_strategy("dp", dp.Dp)
+register_strategy("sime", sime.Sime)
+register_strategy("soe", soe.Soe)
+register_strategy("soe_steer", steer.SoeSteer)
+register_strategy("expert", expert.Expert)

@@ -1,0 +1,68 @@
+"""The acting policy: a policy's networks with its evaluation parameters and normaliser, in raw units.
+
+Every path from raw observations to raw actions goes through here: normalise the observation history
+(B, To, D), sample normalised actions (B, T, A), unnormalise them. `act` means the executed actions,
+Diffusion Policy's chunk[To-1 : To-1+Ta] (B, Ta, A), which the rollout runs open loop; `chunk` is the
+whole predicted chunk. The observation history holds the last To policy observations, the first one
+repeated at reset.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from soe_jax.policies.normalizer import Normalizer
+from soe_jax.policies.policy import Policy
+
+
+@struct.dataclass
+class Agent:
+  policy: Policy = struct.field(pytree_node=False)
+  params: dict
+  normalizer: Normalizer
+
+  @classmethod
+  def from_state(cls, policy: Policy, state) -> Agent:
+    """From a `TrainState`: the EMA parameters (if any) and its normaliser."""
+    return cls(policy=policy, params=state.eval_params, normalizer=state.normalizer)
+
+  def executed(self, chunk: jax.Array) -> jax.Array:
+    """The Ta actions of a predicted chunk (B, T, A) that run open loop: chunk[:, To-1 : To-1+Ta]."""
+    start = self.policy.n_obs_steps - 1
+    return chunk[:, start : start + self.policy.n_action_steps]
+
+  def chunk(self, obs_history: jax.Array, key: jax.Array, cond_fn=None) -> jax.Array:
+    """Raw (B, T, A) from the base path a = D(E(o)); `cond_fn` perturbs the conditioning while sampling."""
+    actions = self.policy.sample(self.params, self.normalizer.normalize_obs(obs_history), key, cond_fn)
+    return self.normalizer.unnormalize_actions(actions)
+
+  def act(self, obs_history: jax.Array, key: jax.Array, cond_fn=None) -> jax.Array:
+    """Raw executed actions (B, Ta, A) from the base path."""
+    return self.executed(self.chunk(obs_history, key, cond_fn))
+
+  def explore_chunk(self, obs_history: jax.Array, key: jax.Array, alpha) -> tuple[jax.Array, jax.Array]:
+    """Raw (B, T, A) from the exploration path with z ~ N(mu, (alpha sigma)^2), and z (B, d)."""
+    actions, z = self.policy.sample_explore(self.params, self.normalizer.normalize_obs(obs_history), key, alpha)
+    return self.normalizer.unnormalize_actions(actions), z
+
+  def latent(self, obs_history: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """mu, log_std (B, d) of the latent for raw observation histories (B, To, D)."""
+    cond = self.policy.encode(self.params, self.normalizer.normalize_obs(obs_history))
+    return self.policy.latent(self.params, cond)
+
+  def decode_chunk(self, z: jax.Array, key: jax.Array) -> jax.Array:
+    """Raw (B, T, A) decoded from latents z (B, d) through q_phi and the head."""
+    actions, _ = self.policy.head.sample(self.params["head"], self.policy.decode_latent(self.params, z), key)
+    return self.normalizer.unnormalize_actions(actions)
+
+
+def initial_history(obs: jax.Array, n_obs_steps: int) -> jax.Array:
+  """(B, D) the first policy observations -> (B, To, D), the first one repeated."""
+  return jnp.repeat(obs[:, None], n_obs_steps, axis=1)
+
+
+def push_history(history: jax.Array, obs: jax.Array) -> jax.Array:
+  """Drop the oldest of (B, To, D) and append (B, D)."""
+  return jnp.concatenate([history[:, 1:], obs[:, None]], axis=1)

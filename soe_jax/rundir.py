@@ -1,0 +1,233 @@
+"""A run's directory: everything about its files, in one place.
+
+  <workdir>/config.json               the run's config (a different one is refused, naming the fields)
+  <workdir>/seeds.json                evaluation and exploration start-state seeds
+  <workdir>/metrics.jsonl, tb/        the log (`runlog`)
+  <workdir>/rounds/<r>/<phase>.json   each finished phase's record (explore, fit, evaluate)
+  <workdir>/rounds/<r>/ckpt/          round r's policy
+  <workdir>/data/round_<r>.hdf5       the episodes round r kept
+  <workdir>/data/steered_round_<r>.hdf5  episodes steered by hand with round r's policy
+  <round0>/{demos.hdf5, fit.json, evaluate.json, ckpt/}  round 0, shared (below)
+
+Round 0 depends only on the task, data, policy, fit, rollout and evaluation settings, so it is stored
+once in `rounds.round0_dir` (default `<workdir>/../round0`) under `<task>-<hash of those fields>` and
+every method run beside it starts from the same policy. Files are written atomically (write, then
+rename), and `RunDir.phase` runs a phase only if its record is missing, so an interrupted run resumes
+after its last finished phase.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Callable
+from typing import Any
+
+import ml_collections
+
+from soe_jax import checkpoint, runlog
+from soe_jax.data import episodes, hdf5
+
+CONFIG_FILE = "config.json"
+SEEDS_FILE = "seeds.json"
+# Sections that do not change round 0 (so methods differing only there share it).
+NOT_ROUND0 = ("method", "explore", "rounds")
+# Fields of configs saved before they moved: old name -> new name ("a.b." is a whole section).
+RENAMED = {
+  "env.horizon": "env.episode_length",
+  "explore.method": "method",
+  "explore.strategy": "explore.strategy.name",
+  "explore.alpha": "explore.strategy.kwargs.alpha",
+  "explore.sime.": "explore.strategy.kwargs (sime's scale, tau1, tau2)",
+  "explore.steer.": "explore.strategy.kwargs (soe_steer's settings)",
+  "explore.slice_size": "rollout.slice_size",
+  "explore.decisions_per_call": "rollout.decisions_per_call",
+}
+
+
+def write_json(path: str, obj) -> None:
+  """Write `obj` to `path` atomically."""
+  tmp = f"{path}.tmp-{os.getpid()}"
+  with open(tmp, "w") as f:
+    json.dump(obj, f, indent=2)
+  os.replace(tmp, path)
+
+
+def read_json(path: str):
+  with open(path) as f:
+    return json.load(f)
+
+
+def plain(config: ml_collections.ConfigDict) -> dict:
+  return json.loads(config.to_json())
+
+
+def config_diff(saved: dict, current: dict) -> list[str]:
+  """Fields whose values differ, as 'a.b: saved -> current'."""
+  a, b = runlog.flatten(saved), runlog.flatten(current)
+  missing = "<missing>"
+  return [
+    f"{k}: {a.get(k, missing)!r} -> {b.get(k, missing)!r}"
+    for k in sorted(set(a) | set(b))
+    if a.get(k, missing) != b.get(k, missing)
+  ]
+
+
+def check_renamed(saved: dict, path: str) -> None:
+  """Refuse a config saved with fields that have since been renamed, naming them."""
+  flat = runlog.flatten(saved)
+  old = sorted({o for k in flat for o in RENAMED if k == o or (o.endswith(".") and k.startswith(o))})
+  if old:
+    moves = "\n  ".join(f"{o.rstrip('.')} -> {RENAMED[o]}" for o in old)
+    raise ValueError(
+      f"{path} was written with config fields that have been renamed:\n  {moves}\n"
+      "this run directory cannot be resumed; start the run again in a new --workdir"
+    )
+
+
+def check_config(workdir: str, config: ml_collections.ConfigDict) -> None:
+  """Save the config in a new workdir; refuse one that differs from a workdir's saved config, except
+  for more `rounds.num_rounds` (extending a finished run, e.g. after steering its last round)."""
+  path = os.path.join(workdir, CONFIG_FILE)
+  current = plain(config)
+  if not os.path.exists(path):
+    write_json(path, current)
+    return
+  saved = read_json(path)
+  check_renamed(saved, path)
+  extended = current["rounds"]["num_rounds"] > saved["rounds"]["num_rounds"]
+  if extended:
+    saved["rounds"]["num_rounds"] = current["rounds"]["num_rounds"]
+  diff = config_diff(saved, current)
+  if diff:
+    raise ValueError(
+      f"the config does not match the one saved in {path}; differing fields:\n  "
+      + "\n  ".join(diff)
+      + "\nuse a new --workdir, or the saved config"
+    )
+  if extended:
+    write_json(path, current)
+
+
+def load_config(workdir: str) -> ml_collections.ConfigDict:
+  """The config saved in a run's workdir."""
+  path = os.path.join(workdir, CONFIG_FILE)
+  if not os.path.exists(path):
+    raise FileNotFoundError(f"{workdir!r} is not a run directory: {CONFIG_FILE} is missing")
+  saved = read_json(path)
+  check_renamed(saved, path)
+  return ml_collections.ConfigDict(saved)
+
+
+def round0_key(config: ml_collections.ConfigDict) -> str:
+  fields = {k: v for k, v in plain(config).items() if k not in NOT_ROUND0}
+  digest = hashlib.sha1(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:10]
+  return f"{config.env.task}-{digest}"
+
+
+def start_keys(config: ml_collections.ConfigDict) -> dict:
+  """The evaluation start states (fixed) and each round's exploration seed, saved with the run."""
+  return dict(eval_seed=int(config.eval.seed), explore_seed=int(config.seed) + 1)
+
+
+class RunDir:
+  """The files of the run in `workdir` with `config`."""
+
+  def __init__(self, workdir: str, config: ml_collections.ConfigDict):
+    self.path = os.path.abspath(workdir)
+    self.config = config
+    base = config.rounds.round0_dir or os.path.join(os.path.dirname(self.path), "round0")
+    self.round0 = os.path.join(base, round0_key(config))
+
+  @classmethod
+  def create(cls, workdir: str, config: ml_collections.ConfigDict) -> RunDir:
+    """Make (or reopen, checking the config) the run directory; write its config and seeds."""
+    os.makedirs(workdir, exist_ok=True)
+    check_config(workdir, config)
+    seeds = os.path.join(workdir, SEEDS_FILE)
+    if not os.path.exists(seeds):
+      write_json(seeds, start_keys(config))
+    return cls(workdir, config)
+
+  @classmethod
+  def open(cls, workdir: str) -> RunDir:
+    """An existing run directory, with its saved config."""
+    return cls(workdir, load_config(workdir))
+
+  # -- paths ------------------------------------------------------------------------------------
+  def round_dir(self, r: int) -> str:
+    """Where round r's phases and policy live (round 0: the shared round-0 directory)."""
+    return self.round0 if r == 0 else os.path.join(self.path, "rounds", str(r))
+
+  def phase_path(self, r: int, phase: str) -> str:
+    return os.path.join(self.round_dir(r), f"{phase}.json")
+
+  def ckpt_dir(self, r: int) -> str:
+    return os.path.join(self.round_dir(r), "ckpt")
+
+  @property
+  def demos_path(self) -> str:
+    """The run's demonstrations, in its shared round-0 directory."""
+    return os.path.join(self.round0, "demos.hdf5")
+
+  def data_path(self, r: int) -> str:
+    """The episodes round r kept."""
+    return os.path.join(self.path, "data", f"round_{r}.hdf5")
+
+  def steered_path(self, r: int) -> str:
+    """Where episodes steered with round r's policy go."""
+    return os.path.join(self.path, "data", f"steered_round_{r}.hdf5")
+
+  # -- what is there ----------------------------------------------------------------------------
+  def checkpoint_dir(self, r: int) -> str:
+    """Round r's saved policy; an error if it has none yet."""
+    path = self.ckpt_dir(r)
+    if not os.path.exists(os.path.join(path, checkpoint.CONFIG_FILE)):
+      raise FileNotFoundError(f"round {r} of {self.path!r} has no checkpoint at {path} (not run yet?)")
+    return path
+
+  def last_round(self) -> int:
+    """The last round with a saved checkpoint (0 if only round 0 has one)."""
+    rounds = os.path.join(self.path, "rounds")
+    if not os.path.isdir(rounds):
+      return 0
+    done = [
+      int(d)
+      for d in os.listdir(rounds)
+      if d.isdigit() and os.path.exists(os.path.join(self.ckpt_dir(int(d)), checkpoint.CONFIG_FILE))
+    ]
+    return max(done, default=0)
+
+  def demonstrations(self) -> list[dict]:
+    return hdf5.read_episodes(self.demos_path)[0]
+
+  def steered_sets(self, before_round: int) -> list[episodes.EpisodeSet]:
+    """Episodes saved from the steering page with the policies of rounds < `before_round`."""
+    paths = [(q, self.steered_path(q)) for q in range(before_round)]
+    return [episodes.EpisodeSet(hdf5.read_episodes(p)[0], q, True) for q, p in paths if os.path.exists(p)]
+
+  # -- phases -----------------------------------------------------------------------------------
+  def phase(
+    self,
+    r: int,
+    name: str,
+    compute: Callable[[], tuple[dict, Any]],
+    save: Callable[[Any], None] | None = None,
+    load: Callable[[dict], Any] | None = None,
+  ) -> tuple[dict, Any]:
+    """Round r's phase `name` -> (record, value). A finished phase's record is read back and its value
+    loaded by `load(record)`; otherwise `compute()` gives both, `save(value)` stores the value, and the
+    record (with `round` and `phase`) is written atomically last, so a phase counts as finished only
+    once everything it produced is on disk."""
+    path = self.phase_path(r, name)
+    if os.path.exists(path):
+      record = read_json(path)
+      return record, load(record) if load else None
+    record, value = compute()
+    record = dict(record, round=r, phase=name)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    if save:
+      save(value)
+    write_json(path, record)
+    return record, value
