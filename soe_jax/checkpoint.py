@@ -25,6 +25,10 @@ from soe_jax.policies.policy import Policy, make_policy
 
 STATE_DIR = "state"
 CONFIG_FILE = "config.json"
+FORMAT_FILE = "format.json"
+# What a saved state means. 2: observations normalised without clipping, with per-dimension span
+# floors, and quaternion inputs in the continuous sign convention (`envs/manipulation.py`).
+FORMAT = 2
 
 
 def policy_from_config(config: ml_collections.ConfigDict) -> Policy:
@@ -54,10 +58,12 @@ def save(directory: str, state: train_state.TrainState, config: ml_collections.C
   checkpointer = ocp.StandardCheckpointer()
   checkpointer.save(os.path.join(directory, STATE_DIR), jax.device_get(state), force=True)
   checkpointer.wait_until_finished()
+  with open(os.path.join(directory, FORMAT_FILE), "w") as f:
+    json.dump({"format": FORMAT}, f)
   tmp = os.path.join(directory, CONFIG_FILE + ".tmp")
   with open(tmp, "w") as f:
     f.write(config.to_json(indent=2))
-  os.replace(tmp, os.path.join(directory, CONFIG_FILE))
+  os.replace(tmp, os.path.join(directory, CONFIG_FILE))  # last: a checkpoint with a config is complete
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,6 +84,14 @@ def load(directory: str) -> LoadedPolicy:
   config_path = os.path.join(directory, CONFIG_FILE)
   if not os.path.exists(config_path):
     raise FileNotFoundError(f"no checkpoint at {directory!r}: {CONFIG_FILE} is missing")
+  format_path = os.path.join(directory, FORMAT_FILE)
+  found = json.load(open(format_path))["format"] if os.path.exists(format_path) else 1
+  if found != FORMAT:
+    raise ValueError(
+      f"the checkpoint at {directory!r} has format {found}, this code reads format {FORMAT}: it was written "
+      "before observations were normalised without clipping and with span floors, and before quaternion "
+      "inputs changed sign convention, so its policy would misread every observation; fit it again"
+    )
   with open(config_path) as f:
     config = ml_collections.ConfigDict(json.load(f))
   policy = policy_from_config(config)

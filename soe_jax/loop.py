@@ -99,7 +99,7 @@ class Experiment:
     out = self.rollout(
       state, strategy_registry.make_strategy("dp"), keys, self.key(r, _EVALUATE), f"round {r} evaluate"
     )
-    return dict(metrics.rollout_summary(out, 1), success=out["success"].astype(int).tolist())
+    return dict(metrics.rollout_summary(out, 1, state.normalizer), success=out["success"].astype(int).tolist())
 
   def explore(self, state, r: int, buf) -> tuple[dict, list[dict]]:
     """Round r's exploration with the configured strategy, prepared on the data in `buf`."""
@@ -112,7 +112,7 @@ class Experiment:
     out = self.rollout(state, strategy, reset_keys, self.key(r, _EXPLORE), f"round {r} explore ({c.strategy.name})")
     keep = select_lib.select(out["success"].reshape(-1, tries), self.config.rounds.select).reshape(-1)
     rec = dict(
-      metrics.rollout_summary(out, tries),
+      metrics.rollout_summary(out, tries, state.normalizer),
       strategy=c.strategy.name,
       num_episodes=int(keep.sum()),
       success=out["success"].astype(int).tolist(),
@@ -178,7 +178,7 @@ def demonstrations(config: ml_collections.ConfigDict, env, progress: bool) -> li
   """`config.data.num_demos` successful demonstrations: from `data.hdf5_path`, or scripted."""
   n = int(config.data.num_demos)
   if config.data.hdf5_path:
-    found, _ = hdf5.read_episodes(config.data.hdf5_path)
+    found, _ = hdf5.read_episodes(config.data.hdf5_path, env)  # in this task's quaternion convention
     if len(found) < n:
       raise ValueError(f"{config.data.hdf5_path} holds {len(found)} episodes; data.num_demos asks for {n}")
     return found[:n]
@@ -196,7 +196,8 @@ def round0(exp: Experiment) -> tuple:
       dict(env_name=exp.env.name, source="demonstrations"),
     )
   demos = run.demonstrations()
-  norm = normalizer_lib.fit(*policy_frames(demos), margin=float(exp.config.policy.normalizer_margin))
+  margin = float(exp.config.policy.normalizer_margin)
+  norm = normalizer_lib.fit(*policy_frames(demos), margin=margin, obs_min_span=exp.env.obs_min_span)
   state = exp.fit_phase(0, [EpisodeSet(demos, 0)], norm)
   exp.evaluate_phase(0, state)
   return demos, norm, state

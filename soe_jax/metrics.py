@@ -73,9 +73,11 @@ def relative_improvement(before: float, after: float) -> dict:
   return dict(absolute=after - before, relative=None if before == 0 else (after - before) / before)
 
 
-def rollout_summary(out: dict, tries: int) -> dict:
+def rollout_summary(out: dict, tries: int, normalizer=None) -> dict:
   """A rollout phase's numbers from `rollout.rollout`'s output, with `tries` adjacent tries per start
-  state: success rate and Wilson interval, jerk, mean length, and (k > 1) Pass@k and rollouts."""
+  state: success rate and Wilson interval, jerk, mean length, (k > 1) Pass@k and rollouts, and with
+  the policy's `normalizer` the fraction of its observation features outside [-1, 1] over the frames
+  it acted on (`obs_out_of_range`)."""
   sr = success_rate(out["success"])
   rec = dict(
     success_rate=sr["rate"],
@@ -85,6 +87,9 @@ def rollout_summary(out: dict, tries: int) -> dict:
     jerk=average_jerk(out["eef_pos"], out["length"] + 1),
     mean_length=float(out["length"].mean()),
   )
+  if normalizer is not None:
+    acted = np.arange(out["obs"].shape[1]) < np.asarray(out["length"])[:, None]
+    rec["obs_out_of_range"] = float(normalizer.out_of_range_fraction(out["obs"], acted))
   if tries > 1:
     s = out["success"].reshape(-1, tries)
     r = rollouts(s)

@@ -122,6 +122,7 @@ def load_config(workdir: str) -> ml_collections.ConfigDict:
 
 def round0_key(config: ml_collections.ConfigDict) -> str:
   fields = {k: v for k, v in plain(config).items() if k not in NOT_ROUND0}
+  fields["checkpoint_format"] = checkpoint.FORMAT  # a round 0 saved in another format is not reused
   digest = hashlib.sha1(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:10]
   return f"{config.env.task}-{digest}"
 

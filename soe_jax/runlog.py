@@ -141,6 +141,8 @@ def summary_line(r: dict) -> str:
       f"Pass@{r['k']} {r['pass_at_k']:.1%}, rollouts {r['rollouts']} ({r['rollouts_mean']:.2f}/state), "
       f"jerk {r['jerk']:.1f} m/s^3, kept {r['num_episodes']}"
     )
+  if r.get("obs_out_of_range") is not None:
+    parts.append(f"observation features out of range {r['obs_out_of_range']:.1%}")
   if r.get("final_loss") is not None:
     parts.append(f"loss {r['final_loss']:.4f} after {r['steps']} steps on {r['num_episodes']} episodes")
   parts.append(f"({r['time_total_s']:.0f} s, compile {r['time_compile_s']:.0f} s)")

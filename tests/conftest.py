@@ -14,10 +14,17 @@ compile_cache.enable()
 
 
 @functools.cache
-def _env(name: str, backend: str = "mujoco"):
+def _env(name: str, backend: str = "mujoco", episode_length: int = 400):
   from soe_jax.envs import make_env
 
-  return make_env(name, backend=backend)
+  return make_env(name, backend=backend, episode_length=episode_length)
+
+
+@pytest.fixture(scope="session")
+def task_env():
+  """`task_env(name, backend="mujoco", episode_length=400) -> env`, one object per settings, so tests
+  share its compiled programs."""
+  return _env
 
 
 @functools.cache

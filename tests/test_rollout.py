@@ -10,7 +10,6 @@ import pytest
 
 from configs import lift as lift_config
 from soe_jax import checkpoint, rollout
-from soe_jax.envs import make_env
 from soe_jax.experts.collect import run_demos
 from soe_jax.experts.registry import make_expert
 from soe_jax.explore import registry
@@ -19,23 +18,23 @@ from soe_jax.policies.agent import Agent
 
 
 @functools.cache
-def _setup(episode_length):
-  env = make_env("lift", episode_length=episode_length)
+def _setup(env):
   policy = checkpoint.policy_from_config(lift_config.get_config("smoke"))
   rng = np.random.default_rng(0)
   demo_like = rng.uniform(-0.2, 1.0, (100, policy.obs_dim))
   actions = np.concatenate(
     [rng.uniform(-0.1, 0.1, (100, 2)), rng.uniform(0.85, 1.0, (100, 1)), rng.uniform(-1, 1, (100, 7))], 1
   )
-  agent = Agent(policy, policy.init(jax.random.PRNGKey(0)), normalizer_lib.fit(demo_like, actions))
+  params = jax.jit(policy.init)(jax.random.PRNGKey(0))  # compiled: eager initialisation takes seconds
+  agent = Agent(policy, params, normalizer_lib.fit(demo_like, actions))
   return env, policy, agent
 
 
 EPISODE = 20  # not a multiple of n_action_steps (8); every short test shares one compiled program
 
 
-def test_rollouts_are_a_pure_function_of_the_keys():
-  env, policy, agent = _setup(EPISODE)
+def test_rollouts_are_a_pure_function_of_the_keys(task_env):
+  env, policy, agent = _setup(task_env("lift", episode_length=EPISODE))
   keys = jax.random.split(jax.random.PRNGKey(1), 2)
   soe = registry.make_strategy("soe")
   a = rollout.rollout(env, agent, soe, keys, jax.random.PRNGKey(2), progress=False)
@@ -48,8 +47,8 @@ def test_rollouts_are_a_pure_function_of_the_keys():
   assert not np.allclose(a["actions"], c["actions"])  # other exploration noise
 
 
-def test_records_history_episode_length_and_slices():
-  env, policy, agent = _setup(EPISODE)
+def test_records_history_episode_length_and_slices(task_env):
+  env, policy, agent = _setup(task_env("lift", episode_length=EPISODE))
   keys = jax.random.split(jax.random.PRNGKey(1), 4)
   out = rollout.rollout(
     env, agent, registry.make_strategy("dp"), keys, jax.random.PRNGKey(0), slice_size=2, progress=False
@@ -68,8 +67,8 @@ def test_records_history_episode_length_and_slices():
   assert not np.allclose(out["actions"][:, 7], out["actions"][:, 8])
 
 
-def test_scripted_demonstrator_through_the_engine_reproduces_its_success_rate():
-  env, policy, agent = _setup(400)
+def test_scripted_demonstrator_through_the_engine_reproduces_its_success_rate(task_env):
+  env, policy, agent = _setup(task_env("lift"))
   keys = jax.random.split(jax.random.PRNGKey(7), 8)
   demos = run_demos(env, make_expert("lift"), keys, progress=False)
   out = rollout.rollout(env, agent, registry.make_strategy("expert", env), keys, jax.random.PRNGKey(0), progress=False)
@@ -84,8 +83,8 @@ def test_scripted_demonstrator_through_the_engine_reproduces_its_success_rate():
 
 
 @pytest.mark.parametrize("name", [n for n in registry.strategy_names() if n != "expert"])  # expert: above
-def test_every_strategy_runs_in_the_engine(name):
-  env, policy, agent = _setup(EPISODE)
+def test_every_strategy_runs_in_the_engine(name, task_env):
+  env, policy, agent = _setup(task_env("lift", episode_length=EPISODE))
   keys = jax.random.split(jax.random.PRNGKey(5), 2)
   strat = registry.make_strategy(name, env)
   if name == "soe_steer":

@@ -50,8 +50,14 @@ def write_episodes(path: str, episodes: list[dict], env_args: dict) -> None:
   os.replace(tmp, path)
 
 
-def read_episodes(path: str) -> tuple[list[dict], dict]:
-  """Read a robomimic-layout file -> (episodes in `demo_i` index order, env_args)."""
+def read_episodes(path: str, env=None) -> tuple[list[dict], dict]:
+  """Read a robomimic-layout file -> (episodes in `demo_i` index order, env_args).
+
+  With `env` (the task, a `ManipulationEnv`), each episode's quaternion observations are put in the
+  task's sign convention (`ManipulationEnv.conform_quaternions`: the hand's hemisphere, objects
+  continuous from w >= 0, object-in-eef as conj(hand) * object), so a file written elsewhere, e.g.
+  by robosuite with w >= 0 throughout, reads as this project's observations; files written here come
+  back unchanged."""
   if not os.path.exists(path):
     raise FileNotFoundError(f"demonstration file {path!r} does not exist")
   try:
@@ -73,5 +79,10 @@ def read_episodes(path: str) -> tuple[list[dict], dict]:
       ep = {"actions": g["actions"][()], "obs": {k: g["obs"][k][()] for k in g["obs"].keys()}}
       if "states" in g:
         ep["states"] = g["states"][()]
+      if env is not None:
+        missing = [k for k in ("robot0_eef_quat", "object") if k not in ep["obs"]]
+        if missing:
+          raise ValueError(f"demonstration file {path!r}: {name} has no obs {', '.join(missing)}")
+        ep["obs"] = env.conform_quaternions(ep["obs"])
       episodes.append(ep)
   return episodes, env_args

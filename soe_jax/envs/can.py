@@ -20,7 +20,7 @@ import math
 import jax
 import jax.numpy as jnp
 
-from soe_jax.envs import manipulation, panda
+from soe_jax.envs import manipulation, panda, rotations
 
 SOURCE_BIN = (0.1, -0.25, 0.8)
 TARGET_BIN = (0.1, 0.28, 0.8)
@@ -64,6 +64,7 @@ class Can(manipulation.ManipulationEnv):
   name = "can"
   base_pos = (-0.5, -0.1, 0.912)
   object_dim = 14
+  object_layout = (("pos", 3), ("quat", 4), ("pos", 3), ("rel_quat", 4))
   agentview = dict(pos="1.0 0 1.75", quat="0.653 0.271 0.271 0.653")
 
   def _assets_mjcf(self) -> str:
@@ -88,10 +89,10 @@ class Can(manipulation.ManipulationEnv):
     yaw = jax.random.uniform(key_yaw, (), maxval=2 * jnp.pi)
     return manipulation.yaw_free_qpos(jnp.concatenate([xy, jnp.array([FLOOR_TOP + CAN_HALF_HEIGHT])]), yaw)
 
-  def _object_obs(self, qpos, eef_pos, hand_rot):
+  def _object_obs(self, qpos, eef_pos, hand_rot, hand_quat):
     pos, quat = manipulation.free_body_pose(qpos, OBJECT_QPOS)
-    rel_pos, rel_quat = manipulation.pose_in_eef(pos, quat, eef_pos, hand_rot)
-    return jnp.concatenate([pos, manipulation.canonical_quat_xyzw(quat), rel_pos, rel_quat])
+    rel_pos, rel_quat = manipulation.pose_in_eef(pos, quat, eef_pos, hand_rot, hand_quat)
+    return jnp.concatenate([pos, rotations.wxyz_to_xyzw(quat), rel_pos, rel_quat])
 
   def _success(self, qpos, eef_pos):
     pos = qpos[OBJECT_QPOS : OBJECT_QPOS + 3]

@@ -14,7 +14,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from soe_jax.envs import manipulation, panda
+from soe_jax.envs import manipulation, panda, rotations
 
 TABLE_TOP = 0.8
 CUBE_HALF = 0.021
@@ -26,6 +26,7 @@ class Lift(manipulation.ManipulationEnv):
   name = "lift"
   base_pos = (-0.56, 0.0, 0.912)
   object_dim = 10
+  object_layout = (("pos", 3), ("quat", 4), ("pos", 3))
 
   def _scene_mjcf(self) -> str:
     return f"""
@@ -44,9 +45,9 @@ class Lift(manipulation.ManipulationEnv):
     yaw = jax.random.uniform(key_yaw, (), maxval=2 * jnp.pi)
     return manipulation.yaw_free_qpos(jnp.concatenate([xy, jnp.array([TABLE_TOP + 0.01 + CUBE_HALF])]), yaw)
 
-  def _object_obs(self, qpos, eef_pos, hand_rot):
+  def _object_obs(self, qpos, eef_pos, hand_rot, hand_quat):
     pos, quat = manipulation.free_body_pose(qpos, OBJECT_QPOS)
-    return jnp.concatenate([pos, manipulation.canonical_quat_xyzw(quat), eef_pos - pos])
+    return jnp.concatenate([pos, rotations.wxyz_to_xyzw(quat), eef_pos - pos])
 
   def _success(self, qpos, eef_pos):
     return qpos[OBJECT_QPOS + 2] > SUCCESS_HEIGHT

@@ -11,6 +11,17 @@ Observations (`state.obs`, a dict with robomimic's key names):
   object (Lift 10, Can 14, Square 14)
 and extras for experts and metrics: robot0_joint_pos (7), robot0_eef_rot (9, grip-site rotation
 matrix, row-major). The policy sees `POLICY_OBS_KEYS` concatenated in that order.
+
+Quaternion inputs are continuous along every motion the tasks make (a quaternion and its negative are
+the same rotation, so each quantity needs a sign convention):
+- the hand's (`robot0_eef_quat`): the hemisphere of the hand's orientation at the arm's initial pose
+  (`hand_reference`); the tasks turn the top-down hand far less than the 180 degrees that would reach
+  the hemisphere's boundary (robomimic's w >= 0 puts that boundary at the top-down hand itself);
+- an object's world orientation (in `object`): MuJoCo's own quaternion, whose sign the integrator
+  carries continuously, drawn with w >= 0 at reset;
+- an object's orientation in the eef frame (in `object`): conj(hand) * object of the two above, so it
+  is continuous whenever they are.
+`conform_quaternions` applies the same convention to observations recorded elsewhere.
 """
 
 from __future__ import annotations
@@ -27,6 +38,13 @@ from soe_jax.envs import controller, panda, physics, rotations
 POLICY_OBS_KEYS = ("robot0_eef_pos", "robot0_eef_quat", "robot0_gripper_qpos", "object")
 # Sizes of the policy's observation keys; `object` is the task's own (`ManipulationEnv.object_dim`).
 ROBOT_OBS_SIZES = {"robot0_eef_pos": 3, "robot0_eef_quat": 4, "robot0_gripper_qpos": 2}
+# What each policy-observation number is: (kind, size) in order; tasks give their `object_layout`.
+ROBOT_OBS_LAYOUT = (("pos", 3), ("hand_quat", 4), ("finger", 2))
+# The smallest span the normaliser maps to [-1, 1] per kind, from the quantity's physical range, so no
+# dimension's gain exceeds 2 / span: positions 0.08 m (a tenth of the 0.8 m table, the workspace;
+# gain <= 25 per m), fingers their 0.04 m travel (<= 50 per m), unit-quaternion components a quarter
+# of their [-1, 1] range (<= 4).
+MIN_SPAN = {"pos": 0.08, "finger": 0.04, "hand_quat": 0.5, "quat": 0.5, "rel_quat": 0.5}
 CONTROL_DT = 0.05  # 20 Hz
 PHYSICS_DT = 0.002
 AGENTVIEW = dict(pos="0.5 0 1.35", quat="0.653 0.271 0.271 0.653")
@@ -71,6 +89,8 @@ class ManipulationEnv(Env):
   name: str = ""
   base_pos: tuple = (-0.56, 0.0, 0.912)
   object_dim: int = 0
+  # (kind, size) of the `object` vector's parts: pos, quat (world frame), rel_quat (in the eef frame).
+  object_layout: tuple = ()
   agentview: dict = AGENTVIEW
 
   def __init__(self, config: ml_collections.ConfigDict | None = None):
@@ -79,6 +99,10 @@ class ManipulationEnv(Env):
     self._action_size = controller.action_size(self.action_mode)
     self.mj_model = mujoco.MjModel.from_xml_string(self.mjcf())
     self.kin = panda.Kinematics(self.base_pos)
+    # wxyz, the hemisphere of `robot0_eef_quat` (module docstring).
+    self.hand_reference = np.asarray(
+      rotations.mat_to_quat_wxyz(self.kin.forward(jnp.asarray(panda.INIT_QPOS))["hand_rot"])
+    )
     self.physics = physics.make_backend(self.config.backend, self.mj_model, self.config.nsubsteps)
     self.episode_length = int(self.config.episode_length)
 
@@ -98,7 +122,9 @@ class ManipulationEnv(Env):
     """Object qpos (free joints) at reset, (nq - 9,)."""
     raise NotImplementedError
 
-  def _object_obs(self, qpos: jax.Array, eef_pos: jax.Array, hand_rot: jax.Array) -> jax.Array:
+  def _object_obs(self, qpos: jax.Array, eef_pos: jax.Array, hand_rot: jax.Array, hand_quat: jax.Array) -> jax.Array:
+    """The task's `object` vector, laid out as `object_layout` says; `hand_quat` is the hand's wxyz
+    quaternion in its hemisphere."""
     raise NotImplementedError
 
   def _success(self, qpos: jax.Array, eef_pos: jax.Array) -> jax.Array:
@@ -126,6 +152,39 @@ class ManipulationEnv(Env):
   @property
   def observation_size(self) -> int:
     return policy_obs_size(self.object_dim)
+
+  @property
+  def obs_layout(self) -> tuple:
+    """(kind, size) of every part of the policy observation, in order."""
+    return ROBOT_OBS_LAYOUT + tuple(self.object_layout)
+
+  @property
+  def obs_min_span(self) -> np.ndarray:
+    """(D,) the normaliser's smallest span per policy-observation dimension (`MIN_SPAN`)."""
+    return np.concatenate([np.full(size, MIN_SPAN[kind], np.float32) for kind, size in self.obs_layout])
+
+  def conform_quaternions(self, obs: dict) -> dict:
+    """One episode's observations {key: (T, .)}, recorded with any quaternion signs, in this task's
+    convention (module docstring); observations made here come back unchanged."""
+    out = {k: np.array(v) for k, v in obs.items()}
+    hand = rotations.same_hemisphere(_wxyz(out["robot0_eef_quat"]), self.hand_reference)
+    out["robot0_eef_quat"] = np.asarray(rotations.wxyz_to_xyzw(hand))
+    start, world = 0, None
+    for kind, size in self.object_layout:
+      part = slice(start, start + size)
+      if kind == "quat":  # continuous along the episode from w >= 0 at its start
+        q = np.asarray(_wxyz(out["object"][:, part]))
+        for t in range(len(q)):
+          q[t] = rotations.same_hemisphere(q[t], q[t - 1] if t else np.array([1.0, 0, 0, 0]))
+        world = q
+        out["object"][:, part] = np.asarray(rotations.wxyz_to_xyzw(q))
+      elif kind == "rel_quat":  # conj(hand) * object
+        expected = rotations.quat_mul_wxyz(rotations.quat_conj_wxyz(hand), world)
+        out["object"][:, part] = np.asarray(
+          rotations.wxyz_to_xyzw(rotations.same_hemisphere(_wxyz(out["object"][:, part]), expected))
+        )
+      start += size
+    return out
 
   @property
   def action_size(self) -> int:
@@ -171,12 +230,12 @@ class ManipulationEnv(Env):
   def _observe(self, ps: physics.PhysicsState):
     qpos = ps.qpos
     fk = self.kin.forward(qpos[:7])
-    hand_quat = rotations.wxyz_to_xyzw(rotations.mat_to_quat_wxyz(fk["hand_rot"]))
+    hand_quat = rotations.mat_to_quat_wxyz(fk["hand_rot"], self.hand_reference)
     obs = {
       "robot0_eef_pos": fk["site_pos"],
-      "robot0_eef_quat": hand_quat,
+      "robot0_eef_quat": rotations.wxyz_to_xyzw(hand_quat),
       "robot0_gripper_qpos": qpos[7:9],
-      "object": self._object_obs(qpos, fk["site_pos"], fk["hand_rot"]),
+      "object": self._object_obs(qpos, fk["site_pos"], fk["hand_rot"], hand_quat),
       "robot0_joint_pos": qpos[:7],
       "robot0_eef_rot": fk["site_rot"].reshape(9),
     }
@@ -189,23 +248,23 @@ def free_body_pose(qpos: jax.Array, start: int):
   return qpos[start : start + 3], qpos[start + 3 : start + 7]
 
 
-def pose_in_eef(obj_pos, obj_quat_wxyz, eef_pos, hand_rot):
-  """Object pose in the eef frame (eef position, right_hand orientation): robosuite's obj_to_eef."""
-  r_obj = rotations.quat_wxyz_to_mat(obj_quat_wxyz)
+def pose_in_eef(obj_pos, obj_quat_wxyz, eef_pos, hand_rot, hand_quat_wxyz):
+  """Object pose in the eef frame (eef position, right_hand orientation), robosuite's obj_to_eef:
+  (position (3,), xyzw quaternion conj(hand) * object (4,), continuous when both factors are)."""
   rel_pos = hand_rot.T @ (obj_pos - eef_pos)
-  rel_quat = rotations.mat_to_quat_wxyz(hand_rot.T @ r_obj)
+  rel_quat = rotations.quat_mul_wxyz(rotations.quat_conj_wxyz(hand_quat_wxyz), obj_quat_wxyz)
   return rel_pos, rotations.wxyz_to_xyzw(rel_quat)
 
 
-def canonical_quat_xyzw(q_wxyz):
-  """wxyz (sign as stored) -> xyzw, with w >= 0 so equal rotations give equal observations."""
-  q = q_wxyz * jnp.where(q_wxyz[0] < 0, -1.0, 1.0)
-  return rotations.wxyz_to_xyzw(q)
-
-
 def yaw_free_qpos(pos, yaw) -> jax.Array:
-  """Free-joint qpos (7,) for a body at `pos`, rotated by `yaw` about world z."""
-  return jnp.concatenate([jnp.asarray(pos, jnp.float32), rotations.yaw_quat_wxyz(yaw)])
+  """Free-joint qpos (7,) for a body at `pos`, rotated by `yaw` about world z, its quaternion with
+  w >= 0 (the object-orientation convention at reset; the same physical state for either sign)."""
+  q = rotations.same_hemisphere(rotations.yaw_quat_wxyz(yaw), jnp.array([1.0, 0.0, 0.0, 0.0]))
+  return jnp.concatenate([jnp.asarray(pos, jnp.float32), q])
+
+
+def _wxyz(q_xyzw):
+  return np.concatenate([q_xyzw[..., 3:], q_xyzw[..., :3]], -1)
 
 
 def prism_mesh(name: str, radius: float, half_height: float, sides: int = 16) -> str:

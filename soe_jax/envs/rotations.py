@@ -24,8 +24,10 @@ def quat_wxyz_to_mat(q: jnp.ndarray) -> jnp.ndarray:
   )
 
 
-def mat_to_quat_wxyz(m: jnp.ndarray) -> jnp.ndarray:
-  """(..., 3, 3) rotation matrix -> (..., 4) wxyz quaternion with w >= 0.
+def mat_to_quat_wxyz(m: jnp.ndarray, reference=None) -> jnp.ndarray:
+  """(..., 3, 3) rotation matrix -> (..., 4) wxyz quaternion in the hemisphere of `reference` (4,)
+  (q . reference >= 0; default the identity, so w >= 0). A quantity whose orientations stay within
+  180 degrees of its reference then has a quaternion that is continuous along every motion.
 
   Branch-free (Shepperd's method evaluated for all four pivots, the best one kept), so
   it vectorises and differentiates without data-dependent control flow.
@@ -51,7 +53,31 @@ def mat_to_quat_wxyz(m: jnp.ndarray) -> jnp.ndarray:
   best = jnp.argmax(pivots, axis=-1)
   q = jnp.take_along_axis(cands, best[..., None, None], axis=-2)[..., 0, :]
   q = q / jnp.linalg.norm(q, axis=-1, keepdims=True)
-  return q * jnp.where(q[..., :1] < 0, -1.0, 1.0)
+  return same_hemisphere(q, jnp.array([1.0, 0.0, 0.0, 0.0]) if reference is None else reference)
+
+
+def same_hemisphere(q: jnp.ndarray, reference) -> jnp.ndarray:
+  """q (..., 4) or -q (the same rotation), whichever has a non-negative dot product with `reference`."""
+  return q * jnp.where(jnp.sum(q * reference, axis=-1, keepdims=True) < 0, -1.0, 1.0)
+
+
+def quat_conj_wxyz(q: jnp.ndarray) -> jnp.ndarray:
+  return q * jnp.array([1.0, -1.0, -1.0, -1.0])
+
+
+def quat_mul_wxyz(a: jnp.ndarray, b: jnp.ndarray) -> jnp.ndarray:
+  """Hamilton product a * b of wxyz quaternions (the rotation R(a) R(b))."""
+  aw, ax, ay, az = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
+  bw, bx, by, bz = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+  return jnp.stack(
+    [
+      aw * bw - ax * bx - ay * by - az * bz,
+      aw * bx + ax * bw + ay * bz - az * by,
+      aw * by - ax * bz + ay * bw + az * bx,
+      aw * bz + ax * by - ay * bx + az * bw,
+    ],
+    -1,
+  )
 
 
 def wxyz_to_xyzw(q: jnp.ndarray) -> jnp.ndarray:

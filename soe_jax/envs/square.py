@@ -18,7 +18,7 @@ import math
 import jax
 import jax.numpy as jnp
 
-from soe_jax.envs import manipulation, panda
+from soe_jax.envs import manipulation, panda, rotations
 
 TABLE_TOP = 0.82
 SQUARE_PEG = (0.23, 0.10)
@@ -34,6 +34,7 @@ class Square(manipulation.ManipulationEnv):
   name = "square"
   base_pos = (-0.56, 0.0, 0.912)
   object_dim = 14
+  object_layout = (("pos", 3), ("quat", 4), ("pos", 3), ("rel_quat", 4))
 
   def _assets_mjcf(self) -> str:
     return manipulation.prism_mesh("round_peg_mesh", 0.02, PEG_HALF_HEIGHT)
@@ -71,10 +72,10 @@ class Square(manipulation.ManipulationEnv):
     yaw = jax.random.uniform(key_yaw, (), maxval=2 * jnp.pi)
     return manipulation.yaw_free_qpos(jnp.concatenate([xy, jnp.array([TABLE_TOP + 0.02 + 0.05])]), yaw)
 
-  def _object_obs(self, qpos, eef_pos, hand_rot):
+  def _object_obs(self, qpos, eef_pos, hand_rot, hand_quat):
     pos, quat = manipulation.free_body_pose(qpos, OBJECT_QPOS)
-    rel_pos, rel_quat = manipulation.pose_in_eef(pos, quat, eef_pos, hand_rot)
-    return jnp.concatenate([pos, manipulation.canonical_quat_xyzw(quat), rel_pos, rel_quat])
+    rel_pos, rel_quat = manipulation.pose_in_eef(pos, quat, eef_pos, hand_rot, hand_quat)
+    return jnp.concatenate([pos, rotations.wxyz_to_xyzw(quat), rel_pos, rel_quat])
 
   def _success(self, qpos, eef_pos):
     pos = qpos[OBJECT_QPOS : OBJECT_QPOS + 3]

@@ -2,10 +2,14 @@
 
 Low-dim observations and action positions map their range in the demonstrations, widened by a margin
 on each side (default 10% of the range), to [-1, 1]; rotation-6d and gripper action dims stay as they
-are (already in [-1, 1]). A dimension with (almost) no range is only shifted to 0. Normalised values
-are clipped to [-1, 1] and the clipped fraction is reported. Statistics come from the demonstrations
-once and are stored with the parameters. (Diffusion Policy's low-dim code uses one global scale for
-observations; that quirk is not copied.)
+are (already in [-1, 1]). Each observation dimension's span has a floor from its quantity's physical
+range (`obs_min_span`, e.g. `ManipulationEnv.obs_min_span`), so a dimension that barely moved in a few
+demonstrations does not get a gain in the hundreds; an action dimension with (almost) no range is
+only shifted to 0. Observations are not clipped after scaling: an off-distribution state stays
+visibly out of range (`out_of_range_fraction` measures how much); actions are clipped to [-1, 1] for
+training, as the sampler clips its output. Statistics come from the demonstrations once and are
+stored with the parameters. (Diffusion Policy's low-dim code uses one global scale for observations;
+that quirk is not copied.)
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ class Normalizer:
   act_offset: jnp.ndarray
 
   def normalize_obs(self, obs):
-    return jnp.clip(obs * self.obs_scale + self.obs_offset, -1.0, 1.0)
+    return obs * self.obs_scale + self.obs_offset
 
   def normalize_actions(self, actions):
     return jnp.clip(actions * self.act_scale + self.act_offset, -1.0, 1.0)
@@ -33,15 +37,23 @@ class Normalizer:
   def unnormalize_actions(self, actions):
     return (actions - self.act_offset) / self.act_scale
 
-  def obs_clip_fraction(self, obs):
-    y = obs * self.obs_scale + self.obs_offset
-    return jnp.mean((jnp.abs(y) > 1.0).astype(jnp.float32))
+  def out_of_range_fraction(self, obs, mask=None):
+    """The fraction of normalised observation features outside [-1, 1] over raw obs (..., D), counting
+    only the frames where `mask` (...) is set (default all)."""
+    out = jnp.abs(self.normalize_obs(obs)) > 1.0
+    if mask is None:
+      return jnp.mean(out.astype(jnp.float32))
+    mask = jnp.asarray(mask, jnp.float32)[..., None]
+    return jnp.sum(out * mask) / jnp.maximum(jnp.sum(mask) * obs.shape[-1], 1.0)
 
 
-def _limits(x: np.ndarray, margin: float):
+def _limits(x: np.ndarray, margin: float, min_span=None):
   lo, hi = x.min(0), x.max(0)
   span = hi - lo
   lo, hi = lo - margin * span, hi + margin * span
+  if min_span is not None:  # widen around the centre to the floor
+    centre, half = (lo + hi) / 2, np.maximum(hi - lo, min_span) / 2
+    lo, hi = centre - half, centre + half
   flat = (hi - lo) < RANGE_EPS
   scale = np.where(flat, 1.0, 2.0 / np.where(flat, 1.0, hi - lo))
   offset = np.where(flat, -(lo + hi) / 2, -1.0 - scale * lo)
@@ -49,11 +61,17 @@ def _limits(x: np.ndarray, margin: float):
 
 
 def fit(
-  obs: np.ndarray, actions: np.ndarray, margin: float = 0.1, identity_action_dims: slice | None = None
+  obs: np.ndarray,
+  actions: np.ndarray,
+  margin: float = 0.1,
+  identity_action_dims: slice | None = None,
+  obs_min_span: np.ndarray | None = None,
 ) -> Normalizer:
-  """From all demonstration frames: obs (N, D), actions (N, A). `identity_action_dims` defaults to
+  """From all demonstration frames: obs (N, D), actions (N, A). `obs_min_span` (D,): the smallest span
+  each observation dimension maps to [-1, 1] (none by default). `identity_action_dims` defaults to
   everything after the 3 position dims (rotation-6d and gripper of the absolute action)."""
-  obs_scale, obs_offset = _limits(np.asarray(obs, np.float64), margin)
+  floor = None if obs_min_span is None else np.asarray(obs_min_span, np.float64)
+  obs_scale, obs_offset = _limits(np.asarray(obs, np.float64), margin, floor)
   act_scale, act_offset = _limits(np.asarray(actions, np.float64), margin)
   ident = identity_action_dims if identity_action_dims is not None else slice(3, None)
   act_scale[ident], act_offset[ident] = 1.0, 0.0

@@ -1,24 +1,54 @@
-"""Per-dimension limits with a margin; identity for rotation-6d and gripper; clipping reported."""
+"""Per-dimension limits with a margin and span floors; identity for rotation-6d and gripper; no clip of
+observations, and the out-of-range fraction."""
 
 import numpy as np
 
+from soe_jax.envs import manipulation
 from soe_jax.policies import normalizer
 
 
-def test_limits_with_margin_identity_dims_and_clip_fraction():
+def _fit(min_span=None):
   rng = np.random.default_rng(0)
   obs = rng.uniform([0, -5, 2], [1, 5, 2], size=(500, 3)).astype(np.float32)  # third dim constant
+  obs[:2, :2] = [[0, -5], [1, 5]]  # the ranges exactly [0, 1] and [-5, 5]
   actions = rng.uniform(-0.5, 0.5, size=(500, 10)).astype(np.float32)
-  norm = normalizer.fit(obs, actions, margin=0.1)
+  return obs, actions, normalizer.fit(obs, actions, margin=0.1, obs_min_span=min_span)
+
+
+def test_limits_with_margin_and_identity_action_dims():
+  obs, actions, norm = _fit()
   y = np.asarray(norm.normalize_obs(obs))
   # The data's range maps to [-1/1.2, 1/1.2]: 10% margin on each side.
-  np.testing.assert_allclose(y[:, :2].max(0), 1 / 1.2, atol=1e-3)
-  np.testing.assert_allclose(y[:, :2].min(0), -1 / 1.2, atol=1e-3)
-  np.testing.assert_allclose(y[:, 2], 0.0, atol=1e-6)  # a constant dim is only shifted
+  np.testing.assert_allclose(y[:, :2].max(0), 1 / 1.2, atol=1e-6)
+  np.testing.assert_allclose(y[:, :2].min(0), -1 / 1.2, atol=1e-6)
+  np.testing.assert_allclose(y[:, 2], 0.0, atol=1e-6)  # a constant dim without a floor is only shifted
   a = np.asarray(norm.normalize_actions(actions))
   np.testing.assert_array_equal(a[:, 3:], actions[:, 3:])  # rotation-6d and gripper as they are
   np.testing.assert_allclose(np.asarray(norm.unnormalize_actions(a)), actions, atol=1e-5)
-  assert float(norm.obs_clip_fraction(obs)) == 0.0
-  outside = obs.copy()
-  outside[:, 0] += 2.0
-  assert abs(float(norm.obs_clip_fraction(outside)) - 1 / 3) < 1e-6
+
+
+def test_an_observation_far_outside_the_demonstrations_is_not_clipped():
+  obs, _, norm = _fit()
+  far = obs[:1].copy()
+  far[0, 0] = 3.0  # the demonstrations span [0, 1]: 1.2 with the margin, centred at 0.5
+  np.testing.assert_allclose(np.asarray(norm.normalize_obs(far))[0, 0], (3.0 - 0.5) * 2 / 1.2, rtol=1e-5)  # 4.17
+
+
+def test_span_floors_bound_the_gain_of_a_dimension_that_barely_moved():
+  obs, _, norm = _fit(min_span=np.array([0.5, 0.5, 0.5]))
+  scale = np.asarray(norm.obs_scale)
+  np.testing.assert_allclose(scale[:2], [2 / 1.2, 2 / 12.0], rtol=1e-5)  # wider than the floor: as before
+  np.testing.assert_allclose(scale[2], 2 / 0.5, rtol=1e-6)  # constant: the floor's gain, 4
+  np.testing.assert_allclose(np.asarray(norm.normalize_obs(obs))[:, 2], 0.0, atol=1e-6)  # centred
+  # The tasks' floors: no policy-observation dimension gets a gain beyond 2 / its kind's span.
+  assert max(2 / s for s in manipulation.MIN_SPAN.values()) == 50.0
+
+
+def test_out_of_range_fraction_on_a_hand_made_batch():
+  obs, _, norm = _fit()
+  batch = np.tile(obs[:4], (2, 1, 1))  # (2 episodes, 4 frames, 3)
+  batch[0, 1, 0] = 5.0  # one feature out of range in an acted-on frame
+  batch[1, 3, :] = 100.0  # three in a frame after the episode ended
+  assert abs(float(norm.out_of_range_fraction(batch)) - 4 / 24) < 1e-6
+  acted = np.array([[True] * 4, [True, True, False, False]])
+  assert abs(float(norm.out_of_range_fraction(batch, acted)) - 1 / 18) < 1e-6
