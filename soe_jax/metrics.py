@@ -95,3 +95,13 @@ def rollout_summary(out: dict, tries: int, normalizer=None) -> dict:
     r = rollouts(s)
     rec.update(k=tries, pass_at_k=pass_at_k(s), rollouts=r["sum"], rollouts_mean=r["mean"])
   return rec
+
+
+def paired_comparison(before, after) -> dict:
+  """Per-state outcomes (N,) of two evaluations on the same start states -> states gained and lost,
+  and McNemar's exact two-sided p-value (binomial on the discordant pairs)."""
+  before, after = np.asarray(before, bool), np.asarray(after, bool)
+  gained, lost = int((after & ~before).sum()), int((before & ~after).sum())
+  n, k = gained + lost, min(gained, lost)
+  p = 1.0 if n == 0 else min(1.0, 2 * sum(math.comb(n, i) for i in range(k + 1)) / 2**n)
+  return dict(gained=gained, lost=lost, p_value=p)

@@ -16,7 +16,7 @@ LAYERS = [
   ("rollout", "fit", "checkpoint", "runlog"),
   ("rundir", "report"),
   ("loop", "steer", "bench"),
-  ("main", "compare", "aggregate"),
+  ("main", "compare", "aggregate", "results"),
 ]
 LEVEL = {name: i for i, names in enumerate(LAYERS) for name in names}
 

@@ -43,6 +43,8 @@ def test_a_run_leaves_metrics_report_plots_and_data(smoke_run):
   assert explore["k"] == config.explore.tries and 0 <= explore["pass_at_k"] <= 1
   assert config.explore.num_start_states <= explore["rollouts"] <= explore["num_rollouts"]
   assert lines[1]["num_rollouts"] == config.eval.num_start_states
+  for m in (lines[1], explore):  # every rollout phase: the share of observation features outside [-1, 1]
+    assert 0.0 <= m["obs_out_of_range"] <= 1.0
   for name in (
     "report.md",
     "success.png",

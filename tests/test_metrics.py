@@ -63,3 +63,12 @@ def test_episode_selection_rules():
   np.testing.assert_array_equal(select(s, "sime"), [[0, 1, 1, 0, 0], [0] * 5, [0] * 5, [1, 0, 0, 0, 1]])
   with pytest.raises(ValueError, match="known selections: all_successes, first_success, sime"):
     select(s, "best")
+
+
+def test_paired_comparison_counts_gains_and_losses_with_mcnemars_exact_p():
+  before = np.array([1, 1, 0, 0, 0, 0, 0, 0, 0, 0])
+  after = np.array([1, 0, 1, 1, 1, 1, 1, 1, 0, 0])
+  c = metrics.paired_comparison(before, after)
+  assert (c["gained"], c["lost"]) == (6, 1)
+  assert abs(c["p_value"] - 2 * (1 + 7) / 2**7) < 1e-12  # 0.125
+  assert metrics.paired_comparison(before, before) == dict(gained=0, lost=0, p_value=1.0)

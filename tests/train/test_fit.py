@@ -66,6 +66,9 @@ def test_checkpoint_restores_to_identical_samples(tmp_path):
   assert int(loaded.state.step) == 20
   with pytest.raises(FileNotFoundError, match="config.json"):
     checkpoint.load(str(tmp_path / "missing"))
+  os.remove(tmp_path / "ckpt" / checkpoint.FORMAT_FILE)  # as written before the format number existed
+  with pytest.raises(ValueError, match="has format 1, this code reads format 2.*without clipping"):
+    checkpoint.load(str(tmp_path / "ckpt"))
 
 
 _CURVE = """
