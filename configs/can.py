@@ -8,7 +8,7 @@ each preset does), leaving metrics.jsonl, report.md and plots in runs/can-soe-<t
 
 Demonstrations: 20 (robomimic's core_20 as SIME uses it) by default. Under the `cpu` preset, 100
 demonstrations and a 10k-step round-0 fit (about 20 minutes here, once; rounds keep the preset's
-3k-step re-fit): base success 63% of 100 evaluation episodes [53.2%, 71.8%] (seed 0). With the
+3k-step re-fit): base success 63% of 100 evaluation episodes [53.2%, 71.8%] (seed 0), measured before the policy's inputs were cleaned. With the
 preset's 5k steps it was 6% [2.8%, 12.5%] from 100 demonstrations and 2% from 20: the policy reached
 the can but missed the grasp (BENCHMARKS.md).
 """

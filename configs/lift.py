@@ -7,7 +7,8 @@ each preset does), leaving metrics.jsonl, report.md and plots in runs/lift-soe-<
 `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
 
 Demonstrations: 10, robomimic's core_10 for Lift. Base success measured with the `cpu` preset (seed
-0): 58% of 100 evaluation episodes [48.2%, 67.2%] (round-0 fit 695 s, evaluation 49 s).
+0): 76% of 100 evaluation episodes [66.8%, 83.3%] (round-0 fit 467 s, evaluation 32 s); 58-61%
+before the policy's inputs were cleaned (BENCHMARKS.md).
 
 Benchmarks:
   python -m soe_jax.bench fit --config=configs/lift.py:cpu

@@ -8,7 +8,7 @@ each preset does), leaving metrics.jsonl, report.md and plots in runs/square-soe
 
 Demonstrations: 20, robomimic's core_20 as SIME uses it. Under the `cpu` preset, a 10k-step round-0
 fit (about 20 minutes here, once; rounds keep the preset's 3k-step re-fit): base success 58% of 100
-evaluation episodes [48.2%, 67.2%] (seed 0). With the preset's 5k steps it was 10% [5.5%, 17.4%] from
+evaluation episodes [48.2%, 67.2%] (seed 0), measured before the policy's inputs were cleaned. With the preset's 5k steps it was 10% [5.5%, 17.4%] from
 20 demonstrations and 7% [3.4%, 13.7%] from 50: the policy was not precise enough to seat the nut
 (BENCHMARKS.md).
 
