@@ -12,7 +12,6 @@ printed is the table's rows as one JSON object. The config names no method prese
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 
@@ -28,20 +27,6 @@ flags.DEFINE_integer("num_start_states", 20, "Exploration start states.")
 flags.DEFINE_integer("tries", 5, "Tries per start state (the k of Pass@k).")
 flags.DEFINE_bool("progress", True, "Progress bars.")
 FLAGS = flags.FLAGS
-
-
-def method_config(spec: str, method: str, overrides: dict | None = None):
-  """The config `configs/<task>.py[:PRESETS]` gives with `method`'s preset added, then `overrides`
-  ({"a.b": value})."""
-  path, _, presets = spec.partition(":")
-  module_spec = importlib.util.spec_from_file_location("soe_config", path)
-  if module_spec is None or not os.path.exists(path):
-    raise FileNotFoundError(f"no config file at {path!r}")
-  module = importlib.util.module_from_spec(module_spec)
-  module_spec.loader.exec_module(module)
-  config = module.get_config(",".join(p for p in (presets, method) if p))
-  config.update_from_flattened_dict(dict(overrides or {}))
-  return config
 
 
 def compare(configs: dict, workdir: str, num_start_states: int, tries: int, progress: bool = True) -> list[dict]:
@@ -105,12 +90,12 @@ def main(argv):
   if FLAGS.config is None:
     raise app.UsageError("--config=configs/<task>.py[:PRESETS] is required")
   logging.set_verbosity(logging.WARNING)
-  from soe_jax import compile_cache
+  from soe_jax import compile_cache, configfile
 
   compile_cache.enable()
   spec = config_flags.get_config_filename(FLAGS["config"])
   overrides = config_flags.get_override_values(FLAGS["config"])
-  configs = {m: method_config(spec, m, overrides) for m in FLAGS.methods}
+  configs = {m: configfile.load(spec, m, overrides) for m in FLAGS.methods}
   workdir = FLAGS.workdir or os.path.join("runs", f"compare-{FLAGS.config.env.task}")
   rows = compare(configs, workdir, FLAGS.num_start_states, FLAGS.tries, FLAGS.progress)
   print(json.dumps(rows))

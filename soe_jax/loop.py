@@ -26,7 +26,7 @@ import jax
 import jax.numpy as jnp
 import ml_collections
 
-from soe_jax import checkpoint, metrics, report, rollout, runlog, train_state
+from soe_jax import checkpoint, metrics, report, rollout, runlog, train_state, validation
 from soe_jax import fit as fit_lib
 from soe_jax.data import hdf5
 from soe_jax.data.episodes import EpisodeSet, build_buffer, from_rollout, policy_frames
@@ -40,7 +40,6 @@ from soe_jax.rundir import RunDir, plain, start_keys
 
 # Per-round key streams.
 _FIT, _EXPLORE, _EVALUATE = 1, 2, 3
-REFITS = ("continue", "scratch")
 
 
 @functools.lru_cache(maxsize=8)
@@ -203,19 +202,10 @@ def round0(exp: Experiment) -> tuple:
   return demos, norm, state
 
 
-def validate(config: ml_collections.ConfigDict) -> None:
-  """What would otherwise only fail after round 0's fit: strategy, selection, re-fit mode and rate."""
-  strategy_registry.check_settings(config.explore.strategy.name, config.explore.strategy.kwargs)
-  select_lib.SELECTIONS.check(config.rounds.select)
-  if config.rounds.refit not in REFITS:
-    raise ValueError(f"unknown re-fit mode {config.rounds.refit!r}; known: {', '.join(REFITS)}")
-  if config.rounds.refit_lr < 0:
-    raise ValueError(f"rounds.refit_lr must be >= 0 (0: fit.lr), got {config.rounds.refit_lr}")
-
-
 def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) -> dict:
-  """Run (or resume) the experiment in `workdir`; returns the report's numbers."""
-  validate(config)
+  """Run (or resume) the experiment in `workdir`; returns the report's numbers. A config with a problem
+  is refused (`UserError`) before anything is written."""
+  validation.check(config)
   run_dir = RunDir.create(workdir, config)
   with runlog.RunLog(workdir) as log:
     exp = Experiment(config, run_dir, progress, log)

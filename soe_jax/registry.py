@@ -7,6 +7,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Generic, TypeVar
 
+from soe_jax.errors import UserError
+
 T = TypeVar("T")
 
 
@@ -23,7 +25,7 @@ class Registry(Generic[T]):
 
   def check(self, name: str) -> None:
     if name not in self._factories:
-      raise ValueError(f"unknown {self.family} {name!r}; known {self.plural}: {', '.join(self.names())}")
+      raise UserError(f"unknown {self.family} {name!r}; known {self.plural}: {', '.join(self.names())}")
 
   def factory(self, name: str) -> Callable[..., T]:
     self.check(name)

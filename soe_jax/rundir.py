@@ -26,8 +26,9 @@ from typing import Any
 
 import ml_collections
 
-from soe_jax import checkpoint, runlog
+from soe_jax import checkpoint, configfile, runlog
 from soe_jax.data import episodes, hdf5
+from soe_jax.errors import UserError
 
 CONFIG_FILE = "config.json"
 SEEDS_FILE = "seeds.json"
@@ -80,7 +81,7 @@ def check_renamed(saved: dict, path: str) -> None:
   old = sorted({o for k in flat for o in RENAMED if k == o or (o.endswith(".") and k.startswith(o))})
   if old:
     moves = "\n  ".join(f"{o.rstrip('.')} -> {RENAMED[o]}" for o in old)
-    raise ValueError(
+    raise UserError(
       f"{path} was written with config fields that have been renamed:\n  {moves}\n"
       "this run directory cannot be resumed; start the run again in a new --workdir"
     )
@@ -101,7 +102,7 @@ def check_config(workdir: str, config: ml_collections.ConfigDict) -> None:
     saved["rounds"]["num_rounds"] = current["rounds"]["num_rounds"]
   diff = config_diff(saved, current)
   if diff:
-    raise ValueError(
+    raise UserError(
       f"the config does not match the one saved in {path}; differing fields:\n  "
       + "\n  ".join(diff)
       + "\nuse a new --workdir, or the saved config"
@@ -114,7 +115,7 @@ def load_config(workdir: str) -> ml_collections.ConfigDict:
   """The config saved in a run's workdir."""
   path = os.path.join(workdir, CONFIG_FILE)
   if not os.path.exists(path):
-    raise FileNotFoundError(f"{workdir!r} is not a run directory: {CONFIG_FILE} is missing")
+    raise UserError(f"{workdir!r} is not a run directory: {CONFIG_FILE} is missing")
   saved = read_json(path)
   check_renamed(saved, path)
   return ml_collections.ConfigDict(saved)
@@ -130,6 +131,30 @@ def round0_key(config: ml_collections.ConfigDict) -> str:
 def start_keys(config: ml_collections.ConfigDict) -> dict:
   """The evaluation start states (fixed) and each round's exploration seed, saved with the run."""
   return dict(eval_seed=int(config.eval.seed), explore_seed=int(config.seed) + 1)
+
+
+def default_workdir(config: ml_collections.ConfigDict, spec: str) -> str:
+  """runs/<task>-<method>-seed<k>, and `-<hash>` of the fields (other than the seed) in which `config`
+  differs from what the config file `spec` (`configs/<task>.py[:PRESETS]`) gives, so the same command
+  names the same run and runs differing only by an override do not collide."""
+  diff = [d for d in config_diff(plain(configfile.load(spec)), plain(config)) if not d.startswith("seed:")]
+  name = f"{config.env.task}-{config.method}-seed{config.seed}"
+  if diff:
+    name += "-" + hashlib.sha1("\n".join(diff).encode()).hexdigest()[:6]
+  return os.path.join("runs", name)
+
+
+def status(workdir: str, config: ml_collections.ConfigDict) -> str:
+  """Whether running `config` in `workdir` starts, resumes (after which phase) or finds it finished."""
+  done = runlog.read_metrics(workdir)
+  if not os.path.exists(os.path.join(workdir, CONFIG_FILE)):
+    return "starting"
+  if not done:
+    return "resuming round 0"
+  last = done[-1]
+  if (last["round"], last["phase"]) == (int(config.rounds.num_rounds), "evaluate"):
+    return f"already finished ({last['round']} rounds); rewriting its report"
+  return f"resuming after round {last['round']} {last['phase']}"
 
 
 class RunDir:

@@ -7,14 +7,14 @@ import pathlib
 ROOT = pathlib.Path(__file__).resolve().parent.parent / "soe_jax"
 # Lowest first; a module may import its own layer and those below.
 LAYERS = [
-  ("registry", "types", "metrics", "compile_cache", "sharding"),
+  ("registry", "types", "metrics", "compile_cache", "sharding", "errors", "configfile"),
   ("envs",),
   ("buffer", "data"),
   ("experts",),
   ("policies", "train_state"),
   ("explore",),
   ("rollout", "fit", "checkpoint", "runlog"),
-  ("rundir", "report"),
+  ("rundir", "report", "validation"),
   ("loop", "steer", "bench"),
   ("main", "compare", "aggregate", "results"),
 ]

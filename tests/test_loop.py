@@ -4,6 +4,8 @@ interruption, the shared round 0, re-scoring a checkpoint, and a refused config.
 import json
 import os
 import shutil
+import subprocess
+import sys
 
 import jax
 import numpy as np
@@ -13,6 +15,7 @@ from configs import can as can_config
 from configs import lift as lift_config
 from configs import square as square_config
 from soe_jax import aggregate, loop, rundir, runlog
+from soe_jax.errors import UserError
 from soe_jax.rundir import RunDir
 
 TIMING = ("time_compile_s", "time_fit_s", "time_explore_s", "time_evaluate_s", "time_total_s")
@@ -173,19 +176,83 @@ def test_the_cpu_preset_takes_the_tasks_own_demonstrations_and_steps():
   assert can_config.get_config("cpu,smoke").data.num_demos == 4  # smoke stays tiny
 
 
-def test_unknown_names_are_refused_before_any_work(tmp_path):
+def test_a_rejected_config_writes_nothing(tmp_path):
+  broken = tmp_path / "broken.hdf5"
+  broken.write_text("not hdf5")
   for field, value, message in [
+    ("env.task", "nope", "unknown task 'nope'; known tasks: can, lift, square"),
+    ("policy.head.name", "transformer", "known heads: diffusion_unet, flow_unet, mlp"),
     ("explore.strategy.name", "noise", "known strategies: dp, expert, sime"),
     ("explore.strategy.name", "sime", "strategy 'sime' has no setting 'alpha'"),  # soe's settings
     ("rounds.select", "best", "known selections: all_successes, first_success"),
     ("rounds.refit", "warm", "known: continue, scratch"),
-    ("rounds.refit_lr", -1e-4, r"refit_lr must be >= 0"),
+    ("rounds.refit_lr", -1e-4, r"rounds.refit_lr must be >= 0"),
+    ("data.num_demos", -2, "data.num_demos must be at least 1, got -2"),
+    ("eval.num_start_states", -3, "eval.num_start_states must be at least 1"),
+    ("explore.tries", -1, "explore.tries must be at least 1"),
+    ("fit.num_steps", -5, "fit.num_steps must be at least 1"),
+    ("rounds.num_rounds", -1, "rounds.num_rounds must be >= 0"),
+    ("policy.n_action_steps", 20, r"n_action_steps \(20\) must be at most"),
+    ("data.hdf5_path", str(broken), "is not a readable HDF5 file"),
+    ("data.hdf5_path", str(tmp_path / "absent.hdf5"), "does not exist"),
   ]:
     config = lift_config.get_config("smoke")
     config.update_from_flattened_dict({field: value})
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(UserError, match=message):
       loop.run(config, str(tmp_path / "run"), progress=False)
     assert not os.path.exists(tmp_path / "run")
+
+
+def test_a_demonstration_file_of_another_task_is_refused(smoke_run, tmp_path):
+  _, config, workdir, _ = smoke_run
+  square = square_config.get_config("smoke")
+  square.data.hdf5_path = RunDir(workdir, config).demos_path  # lift's: a 10-number object vector
+  with pytest.raises(UserError, match=r"obs 'object' has shape \(\d+, 10\), the task 'square' needs \(T, 14\)"):
+    loop.run(square, str(tmp_path / "run"), progress=False)
+  assert not os.path.exists(tmp_path / "run")
+
+
+def test_the_same_command_names_the_same_workdir_and_says_it_resumes(smoke_run, tmp_path):
+  _, config, workdir, _ = smoke_run
+  spec = "configs/lift.py:smoke,soe"
+  assert rundir.default_workdir(config, spec) == os.path.join("runs", "lift-soe-seed0")
+  other = lift_config.get_config("smoke,soe")
+  other.fit.lr = 1e-3
+  named = rundir.default_workdir(other, spec)
+  assert named.startswith(os.path.join("runs", "lift-soe-seed0-")) and named == rundir.default_workdir(other, spec)
+  other.seed = 3
+  assert rundir.default_workdir(other, spec).startswith(os.path.join("runs", "lift-soe-seed3-"))
+  assert rundir.status(str(tmp_path / "new"), config) == "starting"
+  assert rundir.status(workdir, config).startswith("already finished (2 rounds)")
+  partial = tmp_path / "partial"
+  shutil.copytree(workdir, partial, ignore=shutil.ignore_patterns("rounds", "data", "tb"))
+  lines = (partial / "metrics.jsonl").read_text().splitlines()[:3]
+  (partial / "metrics.jsonl").write_text("\n".join(lines) + "\n")
+  assert rundir.status(str(partial), config) == "resuming after round 1 explore"
+
+
+def test_a_misspelled_override_suggests_the_field():
+  from soe_jax import configfile
+
+  argv = [
+    "--config.fit.stepz=3",
+    "--config.rounds.num_round=2",
+    "--config.fit.lr=1e-3",
+    "--config.policy.head.kwargs=x",
+  ]
+  assert configfile.unknown_overrides("configs/lift.py:smoke", argv) == [
+    "fit.stepz (did you mean fit.num_steps?)",
+    "rounds.num_round (did you mean rounds.num_rounds?)",
+  ]
+
+
+def test_the_command_line_reports_a_user_error_on_one_line_and_exits_2(tmp_path):
+  workdir = tmp_path / "run"
+  bad = ["--config=configs/lift.py:smoke", "--config.data.num_demos=-2", f"--workdir={workdir}"]
+  proc = subprocess.run([sys.executable, "-m", "soe_jax.main", *bad], capture_output=True, text=True, timeout=300)
+  assert proc.returncode == 2
+  assert proc.stderr.strip() == "error: data.num_demos must be at least 1, got -2"
+  assert not workdir.exists() and "Failed to import warp" not in proc.stdout
 
 
 def test_a_finished_run_can_be_extended_by_more_rounds(tmp_path):
@@ -215,10 +282,10 @@ def test_a_workdir_saved_before_the_fields_were_renamed_is_refused_naming_them(t
 
 
 def test_compare_explores_each_method_as_its_preset_from_the_shared_round0(smoke_run):
-  from soe_jax import compare
+  from soe_jax import compare, configfile
 
   root, config, workdir, _ = smoke_run
-  configs = {m: compare.method_config("configs/lift.py:smoke", m, {"seed": config.seed}) for m in ("dp", "soe_steer")}
+  configs = {m: configfile.load("configs/lift.py:smoke", m, {"seed": config.seed}) for m in ("dp", "soe_steer")}
   assert configs["soe_steer"].explore.strategy.kwargs.num_proposals == 4  # the smoke preset's steering
   rows = compare.compare(configs, str(root / "compare"), num_start_states=2, tries=2, progress=False)
   assert [(r["method"], r["strategy"], r["episodes"]) for r in rows] == [("dp", "dp", 4), ("soe_steer", "soe_steer", 4)]

@@ -1,0 +1,99 @@
+"""Everything about a config that can be checked before any work or any file is written: names,
+counts and rates, the horizons' relation, and the demonstration file. `check(config)` raises
+`UserError` with one line per problem."""
+
+from __future__ import annotations
+
+import ml_collections
+import numpy as np
+
+from soe_jax.data import hdf5
+from soe_jax.envs import controller, manipulation, physics
+from soe_jax.envs import registry as env_registry
+from soe_jax.errors import UserError
+from soe_jax.explore import registry as strategy_registry
+from soe_jax.explore import select
+from soe_jax.policies import registry as policy_registry
+
+REFITS = ("continue", "scratch")
+# Fields that count something: at least 1.
+POSITIVE = ("env.episode_length", "data.num_demos", "data.capacity", "data.max_length", "policy.n_obs_steps",
+            "policy.horizon", "policy.n_action_steps", "fit.num_steps", "fit.batch_size", "fit.chunk_size",
+            "rollout.decisions_per_call", "explore.num_start_states", "explore.tries", "eval.num_start_states",
+            "rounds.refit_steps")  # fmt: skip
+NON_NEGATIVE = ("rollout.slice_size", "rounds.num_rounds", "fit.warmup_steps", "rounds.refit_lr")
+
+
+def _get(config, field: str):
+  for part in field.split("."):
+    config = config[part]
+  return config
+
+
+def problems(config: ml_collections.ConfigDict) -> list[str]:
+  """What is wrong with `config`, one line each (empty if nothing)."""
+  out = []
+
+  def name(check, *args):
+    try:
+      check(*args)
+    except ValueError as e:
+      out.append(str(e))
+
+  name(env_registry.TASKS.check, config.env.task)
+  if config.env.backend != "auto":
+    name(physics.resolve_backend, config.env.backend)
+  name(controller.action_size, config.env.action_mode)
+  name(policy_registry.HEADS.check, config.policy.head.name)
+  name(policy_registry.ENCODERS.check, config.policy.encoder.name)
+  name(strategy_registry.check_settings, config.explore.strategy.name, config.explore.strategy.kwargs)
+  name(select.SELECTIONS.check, config.rounds.select)
+  if config.rounds.refit not in REFITS:
+    out.append(f"unknown re-fit mode {config.rounds.refit!r}; known: {', '.join(REFITS)}")
+  out += [f"{f} must be at least 1, got {_get(config, f)}" for f in POSITIVE if _get(config, f) < 1]
+  out += [f"{f} must be >= 0, got {_get(config, f)}" for f in NON_NEGATIVE if _get(config, f) < 0]
+  if config.fit.lr <= 0:
+    out.append(f"fit.lr must be > 0, got {config.fit.lr}")
+  p = config.policy
+  if p.n_action_steps > p.horizon - p.n_obs_steps + 1:
+    out.append(
+      f"policy.n_action_steps ({p.n_action_steps}) must be at most policy.horizon - policy.n_obs_steps + 1 "
+      f"({p.horizon - p.n_obs_steps + 1}): the executed actions lie inside the predicted chunk"
+    )
+  if config.data.capacity < config.data.num_demos:
+    out.append(f"data.capacity ({config.data.capacity}) must hold data.num_demos ({config.data.num_demos})")
+  if config.data.hdf5_path and not out:
+    out += _demonstration_file(config)
+  return out
+
+
+def _demonstration_file(config) -> list[str]:
+  """The file `data.hdf5_path` is readable, holds enough episodes, with the task's keys and sizes."""
+  path = config.data.hdf5_path
+  try:
+    episodes, _ = hdf5.read_episodes(path)
+  except (OSError, ValueError) as e:
+    return [str(e)]
+  if len(episodes) < config.data.num_demos:
+    return [f"{path} holds {len(episodes)} episodes; data.num_demos asks for {config.data.num_demos}"]
+  factory = env_registry.TASKS.factory(config.env.task)
+  sizes = dict(manipulation.ROBOT_OBS_SIZES, object=factory.object_dim)
+  action = controller.action_size(config.env.action_mode)
+  for i, ep in enumerate(episodes[: config.data.num_demos]):
+    for key, size in sizes.items():
+      got = np.shape(ep["obs"].get(key, ()))
+      if key not in ep["obs"] or len(got) != 2 or got[1] != size:
+        return [f"{path}: episode {i} obs {key!r} has shape {got if key in ep['obs'] else 'missing'}, the task "
+                f"{config.env.task!r} needs (T, {size})"]  # fmt: skip
+    if np.shape(ep["actions"])[-1:] != (action,) or len(ep["actions"]) != len(ep["obs"]["robot0_eef_pos"]):
+      return [f"{path}: episode {i} actions have shape {np.shape(ep['actions'])}, need (T, {action}) for its T frames"]
+    if len(ep["actions"]) > config.data.max_length:
+      return [f"{path}: episode {i} has {len(ep['actions'])} steps, more than data.max_length={config.data.max_length}"]
+  return []
+
+
+def check(config: ml_collections.ConfigDict) -> None:
+  """Raise `UserError` listing every problem of `config`."""
+  found = problems(config)
+  if found:
+    raise UserError(found[0] if len(found) == 1 else "the config has problems:\n  " + "\n  ".join(found))
