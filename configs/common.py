@@ -76,6 +76,7 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
       normalizer_margin=0.1,
     )
   )
+  # checkpoint_every: steps between saves of a fit in progress (0: none), from which it resumes.
   c.fit = ml_collections.ConfigDict(
     dict(
       num_steps=25_000,
@@ -87,6 +88,7 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
       eps=1e-8,
       weight_decay=1e-6,
       ema=True,
+      checkpoint_every=1000,
     )
   )
   # Rollouts (evaluation and exploration): environments per compiled slice (0: all), decisions per call.
@@ -138,7 +140,7 @@ def apply_presets(
     head_kwargs.update(down_dims=(16, 32, 64), step_embed_dim=32)
     c.policy.bypass.hidden = 32
     c.data.num_demos = min(c.data.num_demos, 4)
-    c.fit.update(num_steps=40, chunk_size=20, batch_size=32, warmup_steps=10)
+    c.fit.update(num_steps=40, chunk_size=20, batch_size=32, warmup_steps=10, checkpoint_every=20)
     c.data.capacity = 64
     c.env.episode_length = 24
     c.explore.update(num_start_states=3, tries=2)

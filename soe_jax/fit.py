@@ -75,8 +75,14 @@ def fit(
   config: ml_collections.ConfigDict,
   progress: bool = True,
   desc: str = "fit",
+  start: int = 0,
+  history: list[dict] | None = None,
+  on_chunk=None,
 ):
-  """Run `num_steps` SGD steps -> (state, per-chunk metrics list). `config`: batch_size, chunk_size.
+  """Run SGD steps `start`..`num_steps` -> (state, per-chunk metrics list). `config`: batch_size,
+  chunk_size. The batches depend only on `key` and the step, so a fit resumed from the state and
+  history saved after step `start` ends as an uninterrupted one does; `on_chunk(state, done,
+  history)` is called after every chunk (to save such a point).
 
   Raises NonFiniteLossError between chunks if the loss is not finite."""
   mesh = sharding.data_mesh()
@@ -84,9 +90,9 @@ def fit(
     raise ValueError(f"batch_size {config.batch_size} is not divisible by the {mesh.size} devices")
   rep = sharding.replicated(mesh)
   state, buf = jax.device_put(state, rep), jax.device_put(buf, rep)
-  history = []
-  done = 0
-  bar = tqdm.tqdm(total=num_steps, desc=desc, unit="step", disable=not progress, leave=False)
+  history = list(history or [])
+  done = start
+  bar = tqdm.tqdm(total=num_steps, initial=done, desc=desc, unit="step", disable=not progress, leave=False)
   while done < num_steps:
     length = min(config.chunk_size, num_steps - done)
     chunk = _chunk_fn(policy, tx, int(config.batch_size), int(length), mesh)
@@ -99,5 +105,7 @@ def fit(
     history.append(dict(metrics, step=done))
     bar.update(length)
     bar.set_postfix(loss=f"{metrics['loss']:.4f}")
+    if on_chunk is not None:
+      on_chunk(state, done, history)
   bar.close()
   return state, history

@@ -134,8 +134,18 @@ class Experiment:
     tx = self.optimizer(steps, lr)
     # fit donates its input state: build it from copies, so `norm` and `init_state` stay usable.
     state = jax.tree.map(jnp.copy, train_state.create(params, tx, norm, ema=c.fit.ema))
+    start, history = 0, []
+    if (partial := self.run.partial_fit(r)) is not None:  # an interrupted fit: continue it
+      state, start, history = partial
+    every = max(1, int(c.fit.checkpoint_every) // int(c.fit.chunk_size)) if c.fit.checkpoint_every else 0
+
+    def on_chunk(state, done, history):
+      if every and done < steps and (done // int(c.fit.chunk_size)) % every == 0:
+        self.run.save_partial_fit(r, state, done, history)
+
     key = jax.random.fold_in(self.key(r, _FIT), 1)
-    state, history = fit_lib.fit(self.policy, tx, state, buf, key, steps, c.fit, self.progress, f"round {r} fit")
+    state, history = fit_lib.fit(self.policy, tx, state, buf, key, steps, c.fit, self.progress, f"round {r} fit",
+                                 start, history, on_chunk)  # fmt: skip
     return state, dict(steps=steps, final_loss=history[-1]["loss"], loss_curve=[h["loss"] for h in history])
 
   def timed(self, fn):
@@ -165,7 +175,10 @@ class Experiment:
       state, info = self.fit(build_buffer(self.config, self.policy, sets), norm, r, init_state)
       return dict(info, num_episodes=sum(len(s.episodes) for s in sets)), state
 
-    save = lambda state: checkpoint.save(self.run.ckpt_dir(r), state, self.config)
+    def save(state):
+      checkpoint.save(self.run.ckpt_dir(r), state, self.config)
+      self.run.clear_partial_fit(r)
+
     load = lambda _: checkpoint.load(self.run.ckpt_dir(r)).state
     return self.phase(r, "fit", work, save, load)[1]
 
@@ -214,13 +227,9 @@ def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
       selected = []  # the episodes of the rounds done, one set per round
       for r in range(1, int(config.rounds.num_rounds) + 1):
         buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)] + selected)
-        _, kept = exp.phase(
-          r,
-          "explore",
-          lambda: exp.explore(state, r, buf),
-          save=lambda eps: _save_kept(exp, r, eps),
-          load=lambda rec: _load_kept(exp, r, rec),
-        )
+        strategy = config.explore.strategy.name
+        save = lambda eps: run_dir.save_kept(r, eps, dict(env_name=exp.env.name, strategy=strategy))
+        _, kept = exp.phase(r, "explore", lambda: exp.explore(state, r, buf), save, run_dir.kept)
         selected.append(EpisodeSet(kept, r))
         sets = [EpisodeSet(demos, 0)] + selected + run_dir.steered_sets(r)
         state = exp.fit_phase(r, sets, norm, state if config.rounds.refit == "continue" else None)
@@ -228,12 +237,3 @@ def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
     finally:
       exp.timer.close()
   return report.write(workdir)
-
-
-def _save_kept(exp: Experiment, r: int, kept: list[dict]) -> None:
-  meta = dict(env_name=exp.env.name, source=f"round {r} exploration", strategy=exp.config.explore.strategy.name)
-  hdf5.write_episodes(exp.run.data_path(r), kept, meta)
-
-
-def _load_kept(exp: Experiment, r: int, record: dict) -> list[dict]:
-  return hdf5.read_episodes(exp.run.data_path(r))[0] if record["num_episodes"] else []

@@ -21,6 +21,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
 from collections.abc import Callable
 from typing import Any
 
@@ -205,6 +206,27 @@ class RunDir:
     """Where episodes steered with round r's policy go."""
     return os.path.join(self.path, "data", f"steered_round_{r}.hdf5")
 
+  # -- a fit in progress -------------------------------------------------------------------------
+  def partial_fit_dir(self, r: int) -> str:
+    return os.path.join(self.round_dir(r), "fit_partial")
+
+  def save_partial_fit(self, r: int, state, done: int, history: list[dict]) -> None:
+    """Round r's fit after step `done`: its state, then (last) its progress."""
+    path = self.partial_fit_dir(r)
+    checkpoint.save(path, state, self.config)
+    write_json(os.path.join(path, "progress.json"), dict(done=done, history=history))
+
+  def partial_fit(self, r: int):
+    """(state, done, history) of round r's fit in progress, or None."""
+    progress = os.path.join(self.partial_fit_dir(r), "progress.json")
+    if not os.path.exists(progress):
+      return None
+    saved = read_json(progress)
+    return checkpoint.load(self.partial_fit_dir(r)).state, saved["done"], saved["history"]
+
+  def clear_partial_fit(self, r: int) -> None:
+    shutil.rmtree(self.partial_fit_dir(r), ignore_errors=True)
+
   # -- what is there ----------------------------------------------------------------------------
   def checkpoint_dir(self, r: int) -> str:
     """Round r's saved policy; an error if it has none yet."""
@@ -224,6 +246,14 @@ class RunDir:
       if d.isdigit() and os.path.exists(os.path.join(self.ckpt_dir(int(d)), checkpoint.CONFIG_FILE))
     ]
     return max(done, default=0)
+
+  def save_kept(self, r: int, kept: list[dict], meta: dict) -> None:
+    """Write the episodes round r kept (`meta` goes into the file's env_args)."""
+    hdf5.write_episodes(self.data_path(r), kept, dict(meta, source=f"round {r} exploration"))
+
+  def kept(self, record: dict) -> list[dict]:
+    """The episodes the explore phase of `record` kept."""
+    return hdf5.read_episodes(self.data_path(record["round"]))[0] if record["num_episodes"] else []
 
   def demonstrations(self) -> list[dict]:
     return hdf5.read_episodes(self.demos_path)[0]

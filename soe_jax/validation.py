@@ -21,7 +21,13 @@ POSITIVE = ("env.episode_length", "data.num_demos", "data.capacity", "data.max_l
             "policy.horizon", "policy.n_action_steps", "fit.num_steps", "fit.batch_size", "fit.chunk_size",
             "rollout.decisions_per_call", "explore.num_start_states", "explore.tries", "eval.num_start_states",
             "rounds.refit_steps")  # fmt: skip
-NON_NEGATIVE = ("rollout.slice_size", "rounds.num_rounds", "fit.warmup_steps", "rounds.refit_lr")
+NON_NEGATIVE = (
+  "rollout.slice_size",
+  "rounds.num_rounds",
+  "fit.warmup_steps",
+  "fit.checkpoint_every",
+  "rounds.refit_lr",
+)
 
 
 def _get(config, field: str):

@@ -293,3 +293,36 @@ def test_compare_explores_each_method_as_its_preset_from_the_shared_round0(smoke
   base = json.load(open(os.path.join(RunDir(workdir, config).round0, "evaluate.json")))
   assert saved["base"]["success_rate"] == base["success_rate"]  # the fixture's round 0, not a new fit
   assert "| soe_steer |" in open(os.path.join(root, "compare", "compare.md")).read()
+
+
+def test_a_fit_interrupted_midway_resumes_to_the_same_parameters(smoke_run, tmp_path, monkeypatch):
+  from soe_jax import checkpoint
+
+  _, config, workdir, _ = smoke_run
+  again = lift_config.get_config("smoke,soe")
+  again.rounds.update(num_rounds=0, round0_dir=str(tmp_path / "round0"))
+  real = RunDir.save_partial_fit
+  saved = []
+
+  def save_then_stop(self, r, state, done, history):
+    real(self, r, state, done, history)
+    saved.append(done)
+    raise KeyboardInterrupt
+
+  monkeypatch.setattr(RunDir, "save_partial_fit", save_then_stop)
+  with pytest.raises(KeyboardInterrupt):
+    loop.run(again, str(tmp_path / "run"), progress=False)
+  run = RunDir(str(tmp_path / "run"), again)
+  assert saved == [20] and os.path.exists(os.path.join(run.partial_fit_dir(0), "progress.json"))
+  assert rundir.status(run.path, again) == "resuming round 0"
+  monkeypatch.setattr(RunDir, "save_partial_fit", real)
+  loop.run(again, str(tmp_path / "run"), progress=False)
+  assert not os.path.exists(run.partial_fit_dir(0))  # cleared once the fit finished
+  resumed = checkpoint.load(run.ckpt_dir(0)).state
+  whole = checkpoint.load(RunDir(workdir, config).ckpt_dir(0)).state
+  for a, b in zip(
+    jax.tree.leaves((resumed.params, resumed.ema_params)), jax.tree.leaves((whole.params, whole.ema_params))
+  ):
+    np.testing.assert_array_equal(a, b)
+  fits = [json.load(open(r.phase_path(0, "fit")))["loss_curve"] for r in (run, RunDir(workdir, config))]
+  assert fits[0] == fits[1]
