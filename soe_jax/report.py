@@ -143,29 +143,30 @@ def _plots(workdir: str, s: dict) -> None:
   sr = np.array(s["success_per_round"])
   n = np.array(s["episodes_per_round"])
   ci = np.array([metrics.wilson_interval(int(round(p * m)), int(m)) for p, m in zip(sr, n)]).reshape(-1, 2)
-  fig, ax = plt.subplots(figsize=(5, 3.5))
-  ax.errorbar(rounds, 100 * sr, yerr=100 * np.abs(ci.T - sr), marker="o", capsize=3)
-  ax.set(
-    xlabel="round",
-    ylabel="success rate (%)",
-    title=f"{s['task']} {s['method']}: success (95% Wilson)",
-    ylim=(0, 100),
-    xticks=rounds,
-  )
+  fig, ax = plt.subplots(figsize=(10, 6))
+  ax.errorbar(rounds, 100 * sr, yerr=100 * np.abs(ci.T - sr), marker="o", capsize=3, label="success, 95% Wilson")
+  ax.set(xlabel="round", ylabel="success rate (%)", title=f"{s['task']} {s['method']}: success", xticks=rounds)
+  ax.set_ylim(-3, 103)  # 0% and 100% stay off the frame
+  ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1))
   fig.tight_layout()
-  fig.savefig(os.path.join(workdir, "success.png"), dpi=100)
+  fig.savefig(os.path.join(workdir, "success.png"), dpi=110)
   plt.close(fig)
   ex_rounds = [r for r, p in zip(rounds, s["pass_at_k_per_round"]) if p is not None]
-  fig, ax1 = plt.subplots(figsize=(5, 3.5))
+  fig, ax1 = plt.subplots(figsize=(10, 6))
+  k = s.get("k", 5)
   if ex_rounds:
-    ax1.plot(ex_rounds, [s["rollouts_per_round"][rounds.index(r)] for r in ex_rounds], "o-", color="C0")
+    rollouts = [s["rollouts_per_round"][rounds.index(r)] for r in ex_rounds]
+    lines = ax1.plot(ex_rounds, rollouts, "o-", color="C0", label="rollouts (sum over start states)")
+    ax1.set_ylim(0, 1.05 * max(rollouts))  # from 0: a constant count does not fill the axis
     ax2 = ax1.twinx()
-    ax2.plot(ex_rounds, [100 * s["pass_at_k_per_round"][rounds.index(r)] for r in ex_rounds], "s--", color="C1")
-    ax2.set_ylabel(f"Pass@{s.get('k', 5)} (%)", color="C1")
-    ax2.set_ylim(0, 100)
+    passes = [100 * s["pass_at_k_per_round"][rounds.index(r)] for r in ex_rounds]
+    lines += ax2.plot(ex_rounds, passes, "s--", color="C1", label=f"Pass@{k}")
+    ax2.set_ylabel(f"Pass@{k} (%)", color="C1")
+    ax2.set_ylim(-3, 103)
     ax1.set_xticks(ex_rounds)
+    ax1.legend(lines, [line.get_label() for line in lines], loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2)
   ax1.set(xlabel="round", title=f"{s['task']} {s['method']}: exploration")
   ax1.set_ylabel("rollouts (sum over start states)", color="C0")
   fig.tight_layout()
-  fig.savefig(os.path.join(workdir, "exploration.png"), dpi=100)
+  fig.savefig(os.path.join(workdir, "exploration.png"), dpi=110)
   plt.close(fig)

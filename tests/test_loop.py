@@ -59,6 +59,10 @@ def test_a_run_leaves_metrics_report_plots_and_data(smoke_run):
   ):
     assert os.path.exists(os.path.join(workdir, name)), name
   assert any(f.startswith("events.out.tfevents") for f in os.listdir(os.path.join(workdir, "tb")))
+  import matplotlib.image
+
+  for plot in ("success.png", "exploration.png"):
+    assert matplotlib.image.imread(os.path.join(workdir, plot)).shape[1] >= 1000  # pixels wide
   text = open(os.path.join(workdir, "report.md")).read()
   assert "| soe |" in text and f"(n={config.eval.num_start_states})" in text
   assert summary["rounds"] == [0, 1, 2] and len(summary["success_per_round"]) == 3
