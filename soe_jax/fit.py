@@ -43,7 +43,7 @@ def make_train_step(policy: Policy, tx: optax.GradientTransformation, batch_size
     if ema is not None:
       ema = train_state.ema_update(ema, params, train_state.ema_decay(step))
     metrics = dict(
-      aux, loss=loss, grad_norm=optax.global_norm(grads), obs_out_of_range=norm.out_of_range_fraction(raw["obs"])
+      aux, loss=loss, grad_norm=optax.tree.norm(grads), obs_out_of_range=norm.out_of_range_fraction(raw["obs"])
     )
     return state.replace(step=step, params=params, ema_params=ema, opt_state=opt_state), metrics
 

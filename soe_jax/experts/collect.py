@@ -68,6 +68,7 @@ def run_demos(
     records.append(jax.device_get(rec))
     bar.update(chunk)
     if bool(jax.device_get(carry[2]).all()):
+      bar.update(bar.total - bar.n)  # every episode has ended: the work is complete
       break
   bar.close()
   obs = {
