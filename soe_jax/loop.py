@@ -222,10 +222,13 @@ def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
   run_dir = RunDir.create(workdir, config)
   with runlog.RunLog(workdir) as log:
     exp = Experiment(config, run_dir, progress, log)
+    clock = runlog.RoundClock(int(config.rounds.num_rounds))
     try:
+      clock.begin(0)
       demos, norm, state = round0(exp)
       selected = []  # the episodes of the rounds done, one set per round
       for r in range(1, int(config.rounds.num_rounds) + 1):
+        clock.begin(r)
         buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)] + selected)
         strategy = config.explore.strategy.name
         save = lambda eps: run_dir.save_kept(r, eps, dict(env_name=exp.env.name, strategy=strategy))

@@ -7,8 +7,10 @@ from __future__ import annotations
 import json
 import os
 import threading
+import time
 
 import jax
+import numpy as np
 
 _COMPILE_EVENTS = (
   "/jax/core/compile/jaxpr_trace_duration",
@@ -128,6 +130,27 @@ class RunLog:
 
   def close(self) -> None:
     self.writer.close()
+
+
+def _duration(seconds: float) -> str:
+  minutes, seconds = divmod(int(round(seconds)), 60)
+  return f"{minutes // 60}h{minutes % 60:02d}m" if minutes >= 60 else f"{minutes}m{seconds:02d}s"
+
+
+class RoundClock:
+  """The whole run's progress on the console: round r of R, the time since the start, and, once a
+  round after round 0 has run in this process, how long the remaining rounds take at that pace."""
+
+  def __init__(self, num_rounds: int):
+    self.num_rounds, self.start, self.took = num_rounds, time.perf_counter(), []
+
+  def begin(self, r: int) -> None:
+    now = time.perf_counter()
+    if r > 1:
+      self.took.append(now - self.round_start)
+    self.round_start = now
+    left = f", about {_duration(np.mean(self.took) * (self.num_rounds - r + 1))} left" if self.took else ""
+    print(f"== round {r} of {self.num_rounds} (elapsed {_duration(now - self.start)}{left})", flush=True)
 
 
 def summary_line(r: dict) -> str:
