@@ -15,6 +15,7 @@ thread (the renderer's GL context belongs to the thread that made it).
 from __future__ import annotations
 
 import json
+import sys
 import threading
 from http.server import BaseHTTPRequestHandler, HTTPServer
 
@@ -145,6 +146,13 @@ def make_handler(session: SteeringSession):
   return Handler
 
 
+class Server(HTTPServer):
+  def handle_error(self, request, client_address) -> None:
+    if isinstance(sys.exc_info()[1], (BrokenPipeError, ConnectionResetError)):
+      return  # the page dropped the connection (a reload, a closed tab): nothing went wrong here
+    super().handle_error(request, client_address)
+
+
 def serve(session: SteeringSession, host: str = "127.0.0.1", port: int = 8765) -> HTTPServer:
   """The server, bound but not serving: call `serve_forever` (in a thread of its own if need be)."""
-  return HTTPServer((host, port), make_handler(session))
+  return Server((host, port), make_handler(session))
