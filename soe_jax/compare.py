@@ -37,14 +37,16 @@ def compare(configs: dict, workdir: str, num_start_states: int, tries: int, prog
   from soe_jax.rundir import RunDir, read_json
 
   os.makedirs(workdir, exist_ok=True)
-  rows, base = [], None
+  rows, shared = [], None
   for method, config in configs.items():
     config = config.copy_and_resolve_references()
     config.explore.update(num_start_states=num_start_states, tries=tries)
     exp = loop.Experiment(config, RunDir(workdir, config), progress)
-    demos, _, state = loop.round0(exp)
-    base = base or read_json(exp.run.phase_path(0, "evaluate"))
-    buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)])
+    if shared is None:  # round 0, its record and its data: the same for every method
+      demos, _, state = loop.round0(exp)
+      base = read_json(exp.run.phase_path(0, "evaluate"))
+      shared = state, build_buffer(config, exp.policy, [EpisodeSet(demos, 0)])
+    state, buf = shared
     (rec, _), times = exp.timed(lambda: exp.explore(state, 1, buf))
     exp.timer.close()
     keys = ("pass_at_k", "rollouts", "rollouts_mean", "jerk", "success_rate")
@@ -59,7 +61,7 @@ def compare(configs: dict, workdir: str, num_start_states: int, tries: int, prog
         steer_dims=rec.get("steer_dims"),
         steered_fraction=rec.get("steered_fraction"),
         **{k: rec[k] for k in keys},
-      )  # fmt: skip
+      )
     )
     print(json.dumps(rows[-1]), flush=True)
   config = next(iter(configs.values()))

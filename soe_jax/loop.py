@@ -26,7 +26,7 @@ import jax
 import jax.numpy as jnp
 import ml_collections
 
-from soe_jax import checkpoint, metrics, report, rollout, runlog, train_state, validation
+from soe_jax import checkpoint, metrics, report, rollout, rundir, runlog, train_state, validation
 from soe_jax import fit as fit_lib
 from soe_jax.data import hdf5
 from soe_jax.data.episodes import EpisodeSet, build_buffer, from_rollout, policy_frames
@@ -217,8 +217,10 @@ def round0(exp: Experiment) -> tuple:
 
 def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) -> dict:
   """Run (or resume) the experiment in `workdir`; returns the report's numbers. A config with a problem
-  is refused (`UserError`) before anything is written."""
+  is refused (`UserError`) before anything is written; the first line printed says whether the run
+  starts, resumes or has finished."""
   validation.check(config)
+  print(f"workdir {workdir}: {rundir.status(workdir, config)}", flush=True)
   run_dir = RunDir.create(workdir, config)
   with runlog.RunLog(workdir) as log:
     exp = Experiment(config, run_dir, progress, log)

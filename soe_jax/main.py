@@ -58,7 +58,7 @@ def main(argv):
   if FLAGS.config is None:
     raise app.UsageError("--config=configs/<task>.py[:PRESETS] is required")
   logging.set_verbosity(logging.WARNING)  # keep the console to progress bars and phase summaries
-  from soe_jax import compile_cache, loop, rundir, sharding, validation
+  from soe_jax import compile_cache, loop, rundir, sharding
   from soe_jax.errors import UserError
 
   sharding.maybe_initialize_distributed()  # a multi-host run, when cluster variables describe one
@@ -66,8 +66,6 @@ def main(argv):
   config = FLAGS.config
   workdir = FLAGS.workdir or rundir.default_workdir(config, config_flags.get_config_filename(FLAGS["config"]))
   try:
-    validation.check(config)
-    print(f"workdir {workdir}: {rundir.status(workdir, config)}", flush=True)
     summary = loop.run(config, workdir, progress=FLAGS.progress)
   except UserError as e:
     _fail(str(e))

@@ -228,23 +228,21 @@ class RunDir:
     shutil.rmtree(self.partial_fit_dir(r), ignore_errors=True)
 
   # -- what is there ----------------------------------------------------------------------------
+  def has_checkpoint(self, r: int) -> bool:
+    return os.path.exists(os.path.join(self.ckpt_dir(r), checkpoint.CONFIG_FILE))
+
   def checkpoint_dir(self, r: int) -> str:
     """Round r's saved policy; an error if it has none yet."""
-    path = self.ckpt_dir(r)
-    if not os.path.exists(os.path.join(path, checkpoint.CONFIG_FILE)):
-      raise FileNotFoundError(f"round {r} of {self.path!r} has no checkpoint at {path} (not run yet?)")
-    return path
+    if not self.has_checkpoint(r):
+      raise FileNotFoundError(f"round {r} of {self.path!r} has no checkpoint at {self.ckpt_dir(r)} (not run yet?)")
+    return self.ckpt_dir(r)
 
   def last_round(self) -> int:
     """The last round with a saved checkpoint (0 if only round 0 has one)."""
     rounds = os.path.join(self.path, "rounds")
     if not os.path.isdir(rounds):
       return 0
-    done = [
-      int(d)
-      for d in os.listdir(rounds)
-      if d.isdigit() and os.path.exists(os.path.join(self.ckpt_dir(int(d)), checkpoint.CONFIG_FILE))
-    ]
+    done = [int(d) for d in os.listdir(rounds) if d.isdigit() and self.has_checkpoint(int(d))]
     return max(done, default=0)
 
   def save_kept(self, r: int, kept: list[dict], meta: dict) -> None:

@@ -29,6 +29,14 @@ def make_strategy(name: str, env: manipulation.ManipulationEnv | None = None, **
   return STRATEGIES.factory(name).create(env, **settings)
 
 
+def steering_strategy(strategy_config, env: manipulation.ManipulationEnv) -> steer.SoeSteer:
+  """`soe_steer` for steering a run by hand or analysing its latent: with the run's own settings
+  (`explore.strategy`) where `soe_steer` has them (all of a soe_steer run's, a soe run's alpha), its
+  defaults otherwise."""
+  known = default_settings("soe_steer")
+  return make_strategy("soe_steer", env, **{k: v for k, v in strategy_config.kwargs.items() if k in known})
+
+
 def check_settings(name: str, settings) -> None:
   """Refuse an unknown strategy, or settings it does not have, listing what it has."""
   known = default_settings(name)

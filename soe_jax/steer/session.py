@@ -49,10 +49,7 @@ class SteeringSession:
     self.lock = threading.Lock()
     self._step = jax.jit(jax.vmap(self.env.step))
     self._reset = jax.jit(jax.vmap(self.env.reset))
-    # Steering with the run's own settings where it has them (a soe_steer run), soe_steer's otherwise.
-    known = strategy_registry.default_settings("soe_steer")
-    settings = {k: v for k, v in self.config.explore.strategy.kwargs.items() if k in known}
-    self.steer = strategy_registry.make_strategy("soe_steer", self.env, **settings)
+    self.steer = strategy_registry.steering_strategy(self.config.explore.strategy, self.env)
     self._candidates = jax.jit(
       lambda agent, hist, key, dim: self.steer.candidates(agent, hist, key, (dim,)), static_argnums=3
     )
