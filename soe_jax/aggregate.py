@@ -16,7 +16,7 @@ import os
 import numpy as np
 from absl import app, flags, logging
 
-from soe_jax import metrics, report, runlog
+from soe_jax import cli, metrics, report, runlog
 
 flags.DEFINE_string("out", None, "Output path without extension (default RUNS_DIR/comparison).")
 FLAGS = flags.FLAGS
@@ -143,4 +143,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-  app.run(main)
+  cli.run(main, mjx=False)

@@ -15,8 +15,10 @@ from __future__ import annotations
 import json
 import os
 
-from absl import app, flags, logging
+from absl import app, flags
 from ml_collections import config_flags
+
+from soe_jax import cli
 
 config_flags.DEFINE_config_file("config", None, "configs/<task>.py[:PRESETS], without a method", lock_config=True)
 flags.DEFINE_string(
@@ -91,7 +93,6 @@ def main(argv):
     raise app.UsageError(f"unexpected arguments: {argv[1:]}")
   if FLAGS.config is None:
     raise app.UsageError("--config=configs/<task>.py[:PRESETS] is required")
-  logging.set_verbosity(logging.WARNING)
   from soe_jax import compile_cache, configfile
 
   compile_cache.enable()
@@ -104,4 +105,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-  app.run(main)
+  cli.run(main)

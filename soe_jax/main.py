@@ -7,30 +7,26 @@ workdir defaults to `runs/<task>-<method>-seed<k>`, with a short hash of the fie
 changes from its config file's, so the same command names the same run: running it again resumes
 after the last finished phase (the first line printed says whether it starts, resumes or has
 finished). A mistake in the config is one line on stderr and exit status 2, before anything is
-written; Ctrl-C stops with the finished phases saved and exit status 130. The last line printed is
+written; Ctrl-C (or SIGTERM) stops with the finished phases and the fit in progress saved, and
+exit status 130. The last line printed is
 the run's summary as one JSON object.
 """
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import os
 import sys
 
-from absl import app, flags, logging
+from absl import app, flags
 from ml_collections import config_flags
+
+from soe_jax import cli
 
 config_flags.DEFINE_config_file("config", None, "configs/<task>.py[:PRESETS]", lock_config=True)
 flags.DEFINE_string("workdir", None, "Run directory (default: runs/<task>-<method>-seed<k>[-<hash of the overrides>]).")
 flags.DEFINE_bool("progress", True, "Progress bars.")
 FLAGS = flags.FLAGS
-
-
-def _fail(message: str) -> None:
-  print(f"error: {message}", file=sys.stderr, flush=True)
-  sys.exit(2)
 
 
 def parse_flags(argv: list[str]) -> list[str]:
@@ -47,9 +43,9 @@ def parse_flags(argv: list[str]) -> list[str]:
       except Exception:  # the config file itself is what fails: report the original error
         unknown = []
       if unknown:
-        _fail(f"unknown config field {', '.join(unknown)}")
+        cli.fail(f"unknown config field {', '.join(unknown)}")
     lines = [line for line in str(e).strip("\"'").splitlines() if line.strip()]
-    _fail(lines[-1] if lines else type(e).__name__)
+    cli.fail(lines[-1] if lines else type(e).__name__)
 
 
 def main(argv):
@@ -57,9 +53,7 @@ def main(argv):
     raise app.UsageError(f"unexpected arguments: {argv[1:]}")
   if FLAGS.config is None:
     raise app.UsageError("--config=configs/<task>.py[:PRESETS] is required")
-  logging.set_verbosity(logging.WARNING)  # keep the console to progress bars and phase summaries
   from soe_jax import compile_cache, loop, rundir, sharding
-  from soe_jax.errors import UserError
 
   sharding.maybe_initialize_distributed()  # a multi-host run, when cluster variables describe one
   compile_cache.enable()
@@ -67,19 +61,15 @@ def main(argv):
   workdir = FLAGS.workdir or rundir.default_workdir(config, config_flags.get_config_filename(FLAGS["config"]))
   try:
     summary = loop.run(config, workdir, progress=FLAGS.progress)
-  except UserError as e:
-    _fail(str(e))
   except KeyboardInterrupt:
-    print(f"\ninterrupted: the finished phases are saved in {workdir}; run the same command to resume", file=sys.stderr)
+    print(f"\ninterrupted: what was done is saved in {workdir}; run the same command to resume", file=sys.stderr)
     sys.exit(130)
   print(f"report: {os.path.join(workdir, 'report.md')}")
   print(json.dumps(summary))
 
 
 def run() -> None:
-  with contextlib.redirect_stdout(io.StringIO()):  # MJX prints that the optional warp is missing
-    import mujoco.mjx  # noqa: F401
-  app.run(main, flags_parser=parse_flags)
+  cli.run(main, flags_parser=parse_flags)
 
 
 if __name__ == "__main__":

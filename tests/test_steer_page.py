@@ -56,8 +56,15 @@ def test_steer_a_proposal_and_save_it_from_the_browser(page_server):
     browser = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
     page = browser.new_page()
     page.goto(url)
-    page.wait_for_selector(".dim")
-    assert page.inner_text("#step") == "0"
+    page.wait_for_selector("body[data-ready=true]")  # the first frame is drawn
+    assert page.inner_text("#step") == "0" and not page.is_visible("#placeholder")
+    assert "How to steer" in page.inner_text(".help")
+    latent = len(session.snr)  # one bar per latent dimension, the threshold drawn, the rest marked
+    assert page.locator("#chart .row").count() == latent and page.locator("#threshold").count() == 1
+    below = page.locator("#chart .row.below")
+    assert below.count() == latent - len(session.dims) and page.locator(".dim").count() == len(session.dims)
+    if below.count():
+      assert "no signal" in below.nth(0).text_content()
     page.click(".dim >> nth=0")
     page.wait_for_selector("#proposal-0")
     assert page.locator(".prop").count() == session.steer.num_choices
@@ -69,12 +76,16 @@ def test_steer_a_proposal_and_save_it_from_the_browser(page_server):
     page.reload()  # the state lives in the server
     page.wait_for_selector(".dim")
     assert int(page.inner_text("#step")) == steps
+    assert page.is_disabled("#save")  # not before the episode is over
+    page.click("#finish")
     page.click("#save")
     page.wait_for_function("document.getElementById('saved').textContent === '1'")
+    assert "leaves it out" in page.inner_text("#saved-note") or session.success
     assert page.inner_text("#step") == "0"  # a fresh episode after saving
     browser.close()
   episodes, env_args = hdf5.read_episodes(path)
   assert len(episodes) == 1 and episodes[0]["actions"].shape == (steps, 10)
+  assert episodes[0]["success"] is False  # a few steps of a smoke policy do not lift the cube
   assert env_args["steered"] is True
 
 
@@ -90,9 +101,14 @@ def test_nonsense_requests_are_refused_and_change_nothing(page_server):
   ]:
     code, data = _post(url + action, body)
     assert code in (400, 404) and message in data["error"], (action, data)
-  code, data = _post(url + "/api/proposals", {"dim": session.dims[0], "round": session.round})
+  code, props = _post(url + "/api/proposals", {"dim": session.dims[0], "round": session.round})
   assert code == 200
   code, data = _post(url + "/api/execute", {"id": "0-0-99", "round": session.round})
   assert code == 400 and "unknown proposal" in data["error"]
   after = json.load(urllib.request.urlopen(url + "/api/state"))
   assert after["step"] == before["step"] and after["saved"] == before["saved"]
+  code, data = _post(url + "/api/execute", {"id": props["proposals"][0]["id"], "round": session.round})
+  assert code == 200 and data["step"] > 0 and not data["finished"]
+  code, data = _post(url + "/api/save", {"round": session.round})  # an unfinished episode
+  assert code == 400 and "not over" in data["error"]
+  assert json.load(urllib.request.urlopen(url + "/api/state"))["saved"] == before["saved"]

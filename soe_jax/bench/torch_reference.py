@@ -14,7 +14,9 @@ import json
 import math
 import time
 
-from absl import app, flags
+from absl import flags
+
+from soe_jax import cli
 
 flags.DEFINE_list("down_dims", ["256", "512", "1024"], "UNet widths.")
 flags.DEFINE_integer("step_embed_dim", 256, "Diffusion-step embedding size.")
@@ -165,4 +167,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-  app.run(main)
+  cli.run(main, mjx=False)

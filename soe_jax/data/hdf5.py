@@ -5,7 +5,8 @@ Layout (as robomimic's datasets): `data/` with attributes `total` (number of sam
 `obs/<key>` (T, d), `rewards` (T,), `dones` (T,), and `states` (T, nq) (here: joint positions of the
 whole scene; robomimic stores MuJoCo's flattened state). `mask/` is left out.
 
-An episode is a dict: `obs` {key: (T, d) float32}, `actions` (T, A) float32, and optionally `states`.
+An episode is a dict: `obs` {key: (T, d) float32}, `actions` (T, A) float32, and optionally `states`
+and `success` (written as the last step's `dones`; read back from it).
 """
 
 from __future__ import annotations
@@ -79,6 +80,8 @@ def read_episodes(path: str, env=None) -> tuple[list[dict], dict]:
       ep = {"actions": g["actions"][()], "obs": {k: g["obs"][k][()] for k in g["obs"].keys()}}
       if "states" in g:
         ep["states"] = g["states"][()]
+      if "dones" in g and len(g["dones"]):
+        ep["success"] = bool(g["dones"][-1])  # as written above: done at the last step means success
       if env is not None:
         missing = [k for k in ("robot0_eef_quat", "object") if k not in ep["obs"]]
         if missing:

@@ -11,7 +11,9 @@ from __future__ import annotations
 import json
 import time
 
-from absl import app, flags
+from absl import flags
+
+from soe_jax import cli
 
 flags.DEFINE_string("task", "lift", "Task name.")
 flags.DEFINE_integer("num_episodes", 200, "Number of demonstrations (one start state each).")
@@ -60,4 +62,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-  app.run(main)
+  cli.run(main)

@@ -70,6 +70,7 @@ def run_demos(
     if bool(jax.device_get(carry[2]).all()):
       bar.update(bar.total - bar.n)  # every episode has ended: the work is complete
       break
+  bar.refresh()  # draw the full bar before it goes (an update may fall inside tqdm's redraw interval)
   bar.close()
   obs = {
     k: np.concatenate([r[0][k] for r in records], 0).swapaxes(0, 1)[:, : env.episode_length] for k in RECORDED_KEYS

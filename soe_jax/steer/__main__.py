@@ -2,9 +2,11 @@
 
   MUJOCO_GL=egl python -m soe_jax.steer --workdir=DIR [--round=R] [--port=P] [--host=127.0.0.1]
 
-Open the printed address, pick an effective latent dimension, click one of the proposals drawn over
-the scene to execute it, and save the episode: it is added to the run's data as a steered episode
-(`data/steered_round_<R>.hdf5`), which the next round's fit includes.
+Open the printed address (printed once the policy is compiled and the first frame rendered), pick an
+effective latent dimension, click one of the proposals drawn over the scene to execute it, and save
+the finished episode: it is added to the run's data as a steered episode
+(`data/steered_round_<R>.hdf5`); the next round's fit takes the successful ones (all of them with
+`--config.rounds.steered=all` on the run).
 """
 
 from __future__ import annotations
@@ -13,7 +15,9 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported
 
-from absl import app, flags, logging  # noqa: E402
+from absl import app, flags  # noqa: E402
+
+from soe_jax import cli  # noqa: E402
 
 flags.DEFINE_string("workdir", None, "A run directory written by python -m soe_jax.main.")
 flags.DEFINE_integer("round", None, "The round whose policy to steer (default: the last finished).")
@@ -26,13 +30,12 @@ FLAGS = flags.FLAGS
 def main(argv):
   if len(argv) > 1 or FLAGS.workdir is None:
     raise app.UsageError("usage: python -m soe_jax.steer --workdir=DIR [--round=R] [--port=P]")
-  logging.set_verbosity(logging.WARNING)
-  os.environ.setdefault("MUJOCO_GL", "egl")
   from soe_jax import compile_cache
   from soe_jax.steer import server, session
 
   compile_cache.enable()
   s = session.SteeringSession(FLAGS.workdir, FLAGS.round, FLAGS.seed)
+  s.warm()  # compiled and first frame rendered before the address is printed
   httpd = server.serve(s, FLAGS.host, FLAGS.port)
   print(f"steering round {s.round} of {FLAGS.workdir}: http://{FLAGS.host}:{httpd.server_address[1]}/", flush=True)
   try:
@@ -41,7 +44,8 @@ def main(argv):
     pass
   finally:
     httpd.server_close()
+    s.close()
 
 
 if __name__ == "__main__":
-  app.run(main)
+  cli.run(main)

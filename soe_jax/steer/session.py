@@ -3,8 +3,8 @@
 The session holds the simulator state (one environment, C engine), the observation history and the
 episode so far. `proposals(dim)` decodes proposals along one effective latent dimension and keeps a
 diverse few (farthest point sampling); `execute(id)` runs the chosen one open loop. `save()` appends
-the episode, marked as steered, to `data/steered_round_<R>.hdf5` in the run, which the next round's
-fit includes. Every request is checked first (unknown proposal id, wrong round, finished episode) and
+the finished episode, marked as steered and with its success, to `data/steered_round_<R>.hdf5` in the
+run; the next round's fit takes the successful ones (all of them with `rounds.steered="all"`). Every request is checked first (unknown proposal id, wrong round, finished episode) and
 a bad one raises `SteeringError` without changing anything.
 """
 
@@ -50,17 +50,25 @@ class SteeringSession:
     self._step = jax.jit(jax.vmap(self.env.step))
     self._reset = jax.jit(jax.vmap(self.env.reset))
     self.steer = strategy_registry.steering_strategy(self.config.explore.strategy, self.env)
-    self._candidates = jax.jit(
-      lambda agent, hist, key, dim: self.steer.candidates(agent, hist, key, (dim,)), static_argnums=3
-    )
+    # One program for every dimension (the dimension is an argument, not a constant).
+    self._candidates = jax.jit(lambda agent, hist, key, dim: self.steer.candidates(agent, hist, key, (dim,)))
     buf = build_buffer(self.config, self.policy, [EpisodeSet(self.run.demonstrations(), 0)])
     self.snr = np.asarray(self.steer.snr(self.agent, buf, jax.random.PRNGKey(0)))
-    self.dims = steering.effective_dims(self.snr, self.steer.threshold_db) or (int(np.argmax(self.snr)),)
+    effective = steering.effective_dims(self.snr, self.steer.threshold_db)
+    self.dims = effective or (int(np.argmax(self.snr)),)  # with none above the threshold: the strongest
     self.image_size = image_size
     self.renderer = None  # made on first use, on the thread that renders
     self.data = mujoco.MjData(self.env.mj_model)
     self.saved = 0
+    self.last_saved = None  # {"success": bool, "used": bool} of the episode saved last
+    self.used_in_fit = "successful only" if self.config.rounds.get("steered", "successful") == "successful" else "all"
     self.reset(seed)
+
+  def warm(self) -> None:
+    """Compile the proposal program and render the first frame, so the page's first requests are quick
+    (call it on the thread that will serve: the renderer belongs to it). Changes nothing."""
+    self._candidates(self.agent, self.hist, self.key, self.dims[0])[0].block_until_ready()
+    self.image_png()
 
   # -- state ------------------------------------------------------------------------------------
   def reset(self, seed: int = 0) -> dict:
@@ -129,10 +137,15 @@ class SteeringSession:
     return self.view()
 
   def save(self, round_=None) -> dict:
-    """Append the episode, marked as steered, to the run's data for the next round; then reset."""
+    """Append the finished episode, marked as steered and with its success, to the run's data for the
+    next round (whose fit takes only the successful ones unless `rounds.steered` is "all"); then reset."""
     self._check_round(round_)
     if not self.episode["actions"]:
       raise SteeringError("nothing to save: execute at least one proposal first")
+    if not self.finished:
+      raise SteeringError(
+        "the episode is not over: it ends with success or at the step limit, or press 'finish' to end it here"
+      )
     path = self.run.steered_path(self.round)
     episodes = hdf5.read_episodes(path)[0] if os.path.exists(path) else []
     obs = np.stack(self.episode["obs"])
@@ -148,7 +161,14 @@ class SteeringSession:
       path, episodes, dict(env_name=self.env.name, source=f"steered with round {self.round}", steered=True)
     )
     self.saved = len(episodes)
+    self.last_saved = dict(success=self.success, used=self.success or self.used_in_fit == "all")
     return self.reset(self.seed + 1)
+
+  def close(self) -> None:
+    """Free the renderer (on the thread that rendered), before the interpreter tears EGL down."""
+    if self.renderer is not None:
+      self.renderer.close()
+      self.renderer = None
 
   # -- what the page shows ----------------------------------------------------------------------
   def _camera(self):
@@ -194,6 +214,12 @@ class SteeringSession:
       saved=self.saved,
       seed=self.seed,
       dims=[dict(dim=int(d), snr_db=round(float(self.snr[d]), 2)) for d in self.dims],
+      snr=[dict(dim=i, snr_db=round(float(x), 2), offered=i in self.dims) for i, x in enumerate(self.snr)],
+      threshold_db=float(self.steer.threshold_db),
+      none_above_threshold=bool(self.snr.max() <= self.steer.threshold_db),
+      steps_per_proposal=int(self.policy.n_action_steps),
+      last_saved=self.last_saved,
+      used_in_fit=self.used_in_fit,
       chosen_dim=None if self.proposal_set is None else int(self.proposal_set[0]),
       proposals=props,
       path=self.project(np.stack(self.eef)),

@@ -21,11 +21,12 @@ def _episode(rng, t):
 def test_round_trip_is_exact(tmp_path):
   rng = np.random.default_rng(0)
   episodes = [_episode(rng, t) for t in (5, 9, 12)]
+  episodes[1]["success"] = False
   path = str(tmp_path / "demos.hdf5")
   hdf5.write_episodes(path, episodes, env_args={"env_name": "lift"})
   back, env_args = hdf5.read_episodes(path)
   assert env_args == {"env_name": "lift"}
-  assert len(back) == 3
+  assert len(back) == 3 and [ep["success"] for ep in back] == [True, False, True]
   for a, b in zip(episodes, back):
     np.testing.assert_array_equal(a["actions"], b["actions"])
     np.testing.assert_array_equal(a["states"], b["states"])
@@ -35,7 +36,8 @@ def test_round_trip_is_exact(tmp_path):
   with h5py.File(path) as f:  # robomimic's attributes
     assert f["data"].attrs["total"] == 26
     assert f["data/demo_1"].attrs["num_samples"] == 9
-    assert f["data/demo_1/rewards"][-1] == 1.0 and f["data/demo_1/dones"][-1] == 1
+    assert f["data/demo_2/rewards"][-1] == 1.0 and f["data/demo_2/dones"][-1] == 1
+    assert f["data/demo_1/dones"][-1] == 0
 
 
 def test_missing_and_corrupt_files_say_which_and_why(tmp_path):
