@@ -77,6 +77,9 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
     )
   )
   # checkpoint_every: steps between saves of a fit in progress (0: none), from which it resumes.
+  # eval_every: steps between evaluations of the EMA policy during the fit (0: none), from eval_states
+  # start states of the evaluation seed, the same states and sampling key each time; success against
+  # steps and time goes into the fit's record.
   c.fit = ml_collections.ConfigDict(
     dict(
       num_steps=25_000,
@@ -89,6 +92,8 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
       weight_decay=1e-6,
       ema=True,
       checkpoint_every=1000,
+      eval_every=0,
+      eval_states=50,
     )
   )
   # Rollouts (evaluation and exploration): environments per compiled slice (0: all), decisions per call.
@@ -100,10 +105,12 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   # Rounds after round 0: select episodes (first_success | all_successes | sime), append, re-fit
   # (continue from the previous round's parameters for refit_steps at a peak lr of refit_lr, 0 meaning
   # fit.lr; or scratch), evaluate.
+  # steered: which episodes saved from the steering page the next fit takes (successful | all).
   # round0_dir: where the shared round 0 lives ("" = <workdir>/../round0).
   c.rounds = ml_collections.ConfigDict(
-    dict(num_rounds=3, select="first_success", refit="continue", refit_steps=10_000, refit_lr=0.0, round0_dir="")
-  )
+    dict(num_rounds=3, select="first_success", refit="continue", refit_steps=10_000, refit_lr=0.0,
+         steered="successful", round0_dir="")
+  )  # fmt: skip
   return c
 
 

@@ -33,8 +33,13 @@ from soe_jax.errors import UserError
 
 CONFIG_FILE = "config.json"
 SEEDS_FILE = "seeds.json"
-# Sections that do not change round 0 (so methods differing only there share it).
+# Sections that do not change round 0 (so methods differing only there share it), and fields that
+# change neither its parameters nor its numbers (the fit's in-fit evaluations).
 NOT_ROUND0 = ("method", "explore", "rounds")
+NOT_ROUND0_FIELDS = ("fit.eval_every", "fit.eval_states")
+# Fields added since configs were first saved, with the value that does what a config without them
+# did: a saved config lacking one reads as having that value.
+ADDED = {"rounds.steered": "successful", "fit.eval_every": 0, "fit.eval_states": 50}
 # Fields of configs saved before they moved: old name -> new name ("a.b." is a whole section).
 RENAMED = {
   "env.horizon": "env.episode_length",
@@ -76,6 +81,18 @@ def config_diff(saved: dict, current: dict) -> list[str]:
   ]
 
 
+def with_added(saved: dict) -> dict:
+  """`saved` with the `ADDED` fields it lacks set to their old behaviour's values."""
+  saved = json.loads(json.dumps(saved))
+  for field, value in ADDED.items():
+    *sections, name = field.split(".")
+    d = saved
+    for part in sections:
+      d = d.setdefault(part, {})
+    d.setdefault(name, value)
+  return saved
+
+
 def check_renamed(saved: dict, path: str) -> None:
   """Refuse a config saved with fields that have since been renamed, naming them."""
   flat = runlog.flatten(saved)
@@ -98,6 +115,7 @@ def check_config(workdir: str, config: ml_collections.ConfigDict) -> None:
     return
   saved = read_json(path)
   check_renamed(saved, path)
+  saved = with_added(saved)
   extended = current["rounds"]["num_rounds"] > saved["rounds"]["num_rounds"]
   if extended:
     saved["rounds"]["num_rounds"] = current["rounds"]["num_rounds"]
@@ -119,11 +137,14 @@ def load_config(workdir: str) -> ml_collections.ConfigDict:
     raise UserError(f"{workdir!r} is not a run directory: {CONFIG_FILE} is missing")
   saved = read_json(path)
   check_renamed(saved, path)
-  return ml_collections.ConfigDict(saved)
+  return ml_collections.ConfigDict(with_added(saved))
 
 
 def round0_key(config: ml_collections.ConfigDict) -> str:
   fields = {k: v for k, v in plain(config).items() if k not in NOT_ROUND0}
+  for field in NOT_ROUND0_FIELDS:
+    section, name = field.split(".")
+    fields[section].pop(name, None)
   fields["checkpoint_format"] = checkpoint.FORMAT  # a round 0 saved in another format is not reused
   digest = hashlib.sha1(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:10]
   return f"{config.env.task}-{digest}"
@@ -150,12 +171,16 @@ def status(workdir: str, config: ml_collections.ConfigDict) -> str:
   done = runlog.read_metrics(workdir)
   if not os.path.exists(os.path.join(workdir, CONFIG_FILE)):
     return "starting"
-  if not done:
-    return "resuming round 0"
-  last = done[-1]
-  if (last["round"], last["phase"]) == (int(config.rounds.num_rounds), "evaluate"):
+  last = done[-1] if done else None
+  if last and (last["round"], last["phase"]) == (int(config.rounds.num_rounds), "evaluate"):
     return f"already finished ({last['round']} rounds); rewriting its report"
-  return f"resuming after round {last['round']} {last['phase']}"
+  said = f"resuming after round {last['round']} {last['phase']}" if last else "resuming round 0"
+  fitting = 0 if last is None else last["round"] if last["phase"] == "explore" else None  # the next fit
+  if fitting is not None:
+    progress = os.path.join(RunDir(workdir, config).partial_fit_dir(fitting), "progress.json")
+    if os.path.exists(progress):
+      said += f" (round {fitting}'s fit from step {read_json(progress)['done']})"
+  return said
 
 
 class RunDir:
@@ -256,10 +281,15 @@ class RunDir:
   def demonstrations(self) -> list[dict]:
     return hdf5.read_episodes(self.demos_path)[0]
 
-  def steered_sets(self, before_round: int) -> list[episodes.EpisodeSet]:
-    """Episodes saved from the steering page with the policies of rounds < `before_round`."""
-    paths = [(q, self.steered_path(q)) for q in range(before_round)]
-    return [episodes.EpisodeSet(hdf5.read_episodes(p)[0], q, True) for q, p in paths if os.path.exists(p)]
+  def steered_sets(self, before_round: int, only_successful: bool = True) -> list[episodes.EpisodeSet]:
+    """Episodes saved from the steering page with the policies of rounds < `before_round` (only the
+    successful ones, unless `only_successful` is False)."""
+    sets = []
+    for q in range(before_round):
+      if os.path.exists(path := self.steered_path(q)):
+        found = [ep for ep in hdf5.read_episodes(path)[0] if ep.get("success", True) or not only_successful]
+        sets.append(episodes.EpisodeSet(found, q, True))
+    return sets
 
   # -- phases -----------------------------------------------------------------------------------
   def phase(

@@ -16,16 +16,18 @@ from soe_jax.explore import select
 from soe_jax.policies import registry as policy_registry
 
 REFITS = ("continue", "scratch")
+STEERED = ("successful", "all")  # which steered episodes a fit takes
 # Fields that count something: at least 1.
 POSITIVE = ("env.episode_length", "data.num_demos", "data.capacity", "data.max_length", "policy.n_obs_steps",
             "policy.horizon", "policy.n_action_steps", "fit.num_steps", "fit.batch_size", "fit.chunk_size",
-            "rollout.decisions_per_call", "explore.num_start_states", "explore.tries", "eval.num_start_states",
+            "rollout.decisions_per_call", "explore.num_start_states", "explore.tries", "eval.num_start_states", "fit.eval_states",
             "rounds.refit_steps")  # fmt: skip
 NON_NEGATIVE = (
   "rollout.slice_size",
   "rounds.num_rounds",
   "fit.warmup_steps",
   "fit.checkpoint_every",
+  "fit.eval_every",
   "rounds.refit_lr",
 )
 
@@ -56,6 +58,8 @@ def problems(config: ml_collections.ConfigDict) -> list[str]:
   name(select.SELECTIONS.check, config.rounds.select)
   if config.rounds.refit not in REFITS:
     out.append(f"unknown re-fit mode {config.rounds.refit!r}; known: {', '.join(REFITS)}")
+  if config.rounds.steered not in STEERED:
+    out.append(f"unknown rounds.steered {config.rounds.steered!r}; known: {', '.join(STEERED)}")
   out += [f"{f} must be at least 1, got {_get(config, f)}" for f in POSITIVE if _get(config, f) < 1]
   out += [f"{f} must be >= 0, got {_get(config, f)}" for f in NON_NEGATIVE if _get(config, f) < 0]
   if config.fit.lr <= 0:

@@ -7,7 +7,18 @@ import pathlib
 ROOT = pathlib.Path(__file__).resolve().parent.parent / "soe_jax"
 # Lowest first; a module may import its own layer and those below.
 LAYERS = [
-  ("registry", "types", "metrics", "compile_cache", "sharding", "errors", "configfile"),
+  (
+    "registry",
+    "types",
+    "metrics",
+    "compile_cache",
+    "sharding",
+    "errors",
+    "configfile",
+    "interrupt",
+    "provenance",
+    "cli",
+  ),
   ("envs",),
   ("buffer", "data"),
   ("experts",),
