@@ -6,6 +6,7 @@ replicated; with the same keys the batch, and so the loss curve, is the same on 
 from __future__ import annotations
 
 import functools
+import time
 
 import jax
 import jax.numpy as jnp
@@ -79,7 +80,8 @@ def fit(
   history: list[dict] | None = None,
   on_chunk=None,
 ):
-  """Run SGD steps `start`..`num_steps` -> (state, per-chunk metrics list). `config`: batch_size,
+  """Run SGD steps `start`..`num_steps` -> (state, per-chunk metrics list: the chunk's mean metrics,
+  `step` after it, `chunk_s` its wall time with any compiling). `config`: batch_size,
   chunk_size. The batches depend only on `key` and the step, so a fit resumed from the state and
   history saved after step `start` ends as an uninterrupted one does; `on_chunk(state, done,
   history)` is called after every chunk (to save such a point).
@@ -95,6 +97,7 @@ def fit(
   bar = tqdm.tqdm(total=num_steps, initial=done, desc=desc, unit="step", disable=not progress, leave=False)
   while done < num_steps:
     length = min(config.chunk_size, num_steps - done)
+    t = time.perf_counter()
     chunk = _chunk_fn(policy, tx, int(config.batch_size), int(length), mesh)
     new_state, metrics = chunk(state, buf, jax.random.fold_in(key, done))
     metrics = {k: float(v) for k, v in jax.device_get(metrics).items()}
@@ -102,7 +105,7 @@ def fit(
       raise NonFiniteLossError(f"non-finite training metrics after step {done + length}: {metrics}")
     state = new_state
     done += length
-    history.append(dict(metrics, step=done))
+    history.append(dict(metrics, step=done, chunk_s=round(time.perf_counter() - t, 3)))
     bar.update(length)
     bar.set_postfix(loss=f"{metrics['loss']:.4f}")
     if on_chunk is not None:

@@ -26,7 +26,7 @@ import jax
 import jax.numpy as jnp
 import ml_collections
 
-from soe_jax import checkpoint, metrics, report, rollout, rundir, runlog, train_state, validation
+from soe_jax import checkpoint, interrupt, metrics, report, rollout, rundir, runlog, train_state, validation
 from soe_jax import fit as fit_lib
 from soe_jax.data import hdf5
 from soe_jax.data.episodes import EpisodeSet, build_buffer, from_rollout, policy_frames
@@ -39,7 +39,7 @@ from soe_jax.policies.agent import Agent
 from soe_jax.rundir import RunDir, plain, start_keys
 
 # Per-round key streams.
-_FIT, _EXPLORE, _EVALUATE = 1, 2, 3
+_FIT, _EXPLORE, _EVALUATE, _FIT_EVALUATE = 1, 2, 3, 4
 
 
 @functools.lru_cache(maxsize=8)
@@ -77,7 +77,7 @@ class Experiment:
   def agent(self, state) -> Agent:
     return Agent.from_state(self.policy, state)
 
-  def rollout(self, state, strategy, reset_keys, key, desc: str) -> dict:
+  def rollout(self, state, strategy, reset_keys, key, desc: str, progress: bool | None = None) -> dict:
     """One code path for evaluation and exploration."""
     c = self.config.rollout
     return rollout.rollout(
@@ -88,16 +88,17 @@ class Experiment:
       key,
       slice_size=int(c.slice_size) or None,
       decisions_per_call=int(c.decisions_per_call),
-      progress=self.progress,
+      progress=self.progress if progress is None else progress,
       desc=desc,
     )
 
-  def evaluate(self, state, r: int) -> dict:
-    n = int(self.config.eval.num_start_states)
+  def evaluate(self, state, r: int, num_states: int | None = None, key=None, progress: bool | None = None) -> dict:
+    """The base path from the first `num_states` (default `eval.num_start_states`) start states of the
+    evaluation seed, sampling with `key` (default: round r's evaluation key)."""
+    n = int(num_states or self.config.eval.num_start_states)
     keys = jax.random.split(jax.random.PRNGKey(int(self.config.eval.seed)), n)
-    out = self.rollout(
-      state, strategy_registry.make_strategy("dp"), keys, self.key(r, _EVALUATE), f"round {r} evaluate"
-    )
+    key = self.key(r, _EVALUATE) if key is None else key
+    out = self.rollout(state, strategy_registry.make_strategy("dp"), keys, key, f"round {r} evaluate", progress)
     return dict(metrics.rollout_summary(out, 1, state.normalizer), success=out["success"].astype(int).tolist())
 
   def explore(self, state, r: int, buf) -> tuple[dict, list[dict]]:
@@ -121,15 +122,16 @@ class Experiment:
       rec["steered_fraction"] = float(out["aux"]["steered"].mean())
     return rec, from_rollout(out, keep)
 
-  def fit(self, buf, norm, r: int, init_state=None):
+  def fit(self, buf, norm, r: int, init_state=None, steps: int | None = None):
     """Round 0 / scratch: fresh parameters, `fit.num_steps` at `fit.lr`; continue: from `init_state`,
-    `rounds.refit_steps` at `rounds.refit_lr` (0: `fit.lr`)."""
+    `rounds.refit_steps` at `rounds.refit_lr` (0: `fit.lr`). `steps` overrides the number of steps.
+    With `fit.eval_every`, the EMA policy is evaluated along the way (`eval_curve` in the record)."""
     c = self.config
     if init_state is None:
-      steps, lr = int(c.fit.num_steps), float(c.fit.lr)
+      steps, lr = int(steps or c.fit.num_steps), float(c.fit.lr)
       params = self.policy.init(jax.random.fold_in(self.key(r, _FIT), 0))
     else:
-      steps, lr = int(c.rounds.refit_steps), float(c.rounds.refit_lr or c.fit.lr)
+      steps, lr = int(steps or c.rounds.refit_steps), float(c.rounds.refit_lr or c.fit.lr)
       params = init_state.params
     tx = self.optimizer(steps, lr)
     # fit donates its input state: build it from copies, so `norm` and `init_state` stay usable.
@@ -137,16 +139,30 @@ class Experiment:
     start, history = 0, []
     if (partial := self.run.partial_fit(r)) is not None:  # an interrupted fit: continue it
       state, start, history = partial
-    every = max(1, int(c.fit.checkpoint_every) // int(c.fit.chunk_size)) if c.fit.checkpoint_every else 0
-
-    def on_chunk(state, done, history):
-      if every and done < steps and (done // int(c.fit.chunk_size)) % every == 0:
-        self.run.save_partial_fit(r, state, done, history)
-
+    chunks = lambda every: max(1, int(every) // int(c.fit.chunk_size)) if every else 0
+    save_every, eval_every = chunks(c.fit.checkpoint_every), chunks(c.fit.eval_every)
     key = jax.random.fold_in(self.key(r, _FIT), 1)
-    state, history = fit_lib.fit(self.policy, tx, state, buf, key, steps, c.fit, self.progress, f"round {r} fit",
-                                 start, history, on_chunk)  # fmt: skip
-    return state, dict(steps=steps, final_loss=history[-1]["loss"], loss_curve=[h["loss"] for h in history])
+    with interrupt.deferred("stopping: saving the fit after the chunk in progress (again to stop now)") as stop:
+
+      def on_chunk(state, done, history):
+        n = done // int(c.fit.chunk_size)
+        if eval_every and (n % eval_every == 0 or done == steps):
+          t = time.perf_counter()
+          # Round 0's key in every round: the curves of a fit and of its continuation are paired.
+          ev = self.evaluate(state, r, int(c.fit.eval_states), self.key(0, _FIT_EVALUATE), progress=False)
+          history[-1].update(eval_success=ev["success"], eval_s=round(time.perf_counter() - t, 3))
+        if stop or (save_every and done < steps and n % save_every == 0):
+          self.run.save_partial_fit(r, state, done, history)
+        if stop:
+          raise KeyboardInterrupt
+
+      state, history = fit_lib.fit(self.policy, tx, state, buf, key, steps, c.fit, self.progress, f"round {r} fit",
+                                   start, history, on_chunk)  # fmt: skip
+    info = dict(steps=steps, final_loss=history[-1]["loss"], loss_curve=[h["loss"] for h in history])
+    info["time_steps_s"] = round(sum(h.get("chunk_s", 0.0) for h in history), 2)  # without in-fit evaluations
+    if eval_every:
+      info["eval_curve"] = eval_curve(history)
+    return state, info
 
   def timed(self, fn):
     """(fn(), {time_total_s, time_compile_s})."""
@@ -168,11 +184,11 @@ class Experiment:
       self.log.once(record, self.config.method)
     return record, value
 
-  def fit_phase(self, r: int, sets: list[EpisodeSet], norm, init_state=None):
+  def fit_phase(self, r: int, sets: list[EpisodeSet], norm, init_state=None, steps: int | None = None):
     """Round r's fit on `sets`, its policy saved with the record -> the fitted TrainState."""
 
     def work():
-      state, info = self.fit(build_buffer(self.config, self.policy, sets), norm, r, init_state)
+      state, info = self.fit(build_buffer(self.config, self.policy, sets), norm, r, init_state, steps)
       return dict(info, num_episodes=sum(len(s.episodes) for s in sets)), state
 
     def save(state):
@@ -184,6 +200,20 @@ class Experiment:
 
   def evaluate_phase(self, r: int, state) -> dict:
     return self.phase(r, "evaluate", lambda: (self.evaluate(state, r), None))[0]
+
+
+def eval_curve(history: list[dict]) -> list[dict]:
+  """The in-fit evaluations of a fit's history: step, success rate, the per-state outcomes, and the fit's
+  time up to then without (`fit_s`) and with (`wall_s`) the evaluations before."""
+  curve, fit_s, eval_s = [], 0.0, 0.0
+  for h in history:
+    fit_s += h.get("chunk_s", 0.0)
+    if "eval_success" in h:
+      outcomes = h["eval_success"]
+      curve.append(dict(step=h["step"], success_rate=sum(outcomes) / len(outcomes), success=outcomes,
+                        fit_s=round(fit_s, 2), wall_s=round(fit_s + eval_s, 2)))  # fmt: skip
+      eval_s += h["eval_s"]
+  return curve
 
 
 def demonstrations(config: ml_collections.ConfigDict, env, progress: bool) -> list[dict]:
@@ -236,7 +266,7 @@ def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
         save = lambda eps: run_dir.save_kept(r, eps, dict(env_name=exp.env.name, strategy=strategy))
         _, kept = exp.phase(r, "explore", lambda: exp.explore(state, r, buf), save, run_dir.kept)
         selected.append(EpisodeSet(kept, r))
-        sets = [EpisodeSet(demos, 0)] + selected + run_dir.steered_sets(r)
+        sets = [EpisodeSet(demos, 0)] + selected + run_dir.steered_sets(r, config.rounds.steered == "successful")
         state = exp.fit_phase(r, sets, norm, state if config.rounds.refit == "continue" else None)
         exp.evaluate_phase(r, state)
     finally:

@@ -97,11 +97,26 @@ def rollout_summary(out: dict, tries: int, normalizer=None) -> dict:
   return rec
 
 
-def paired_comparison(before, after) -> dict:
+def paired_comparison(before, after, z: float = 1.959963984540054) -> dict:
   """Per-state outcomes (N,) of two evaluations on the same start states -> states gained and lost,
-  and McNemar's exact two-sided p-value (binomial on the discordant pairs)."""
+  McNemar's exact two-sided p-value (binomial on the discordant pairs), and the difference in success
+  rate with its Wald interval for paired proportions (se^2 = ((g + l) / N - ((g - l) / N)^2) / N)."""
   before, after = np.asarray(before, bool), np.asarray(after, bool)
   gained, lost = int((after & ~before).sum()), int((before & ~after).sum())
   n, k = gained + lost, min(gained, lost)
   p = 1.0 if n == 0 else min(1.0, 2 * sum(math.comb(n, i) for i in range(k + 1)) / 2**n)
-  return dict(gained=gained, lost=lost, p_value=p)
+  states = len(before)
+  diff = (gained - lost) / states
+  se = math.sqrt(max(0.0, (n / states - diff**2) / states))
+  return dict(gained=gained, lost=lost, p_value=p, difference=diff, low=diff - z * se, high=diff + z * se)
+
+
+def convergence(before, after, curve_rates, max_change: float = 0.03, max_step: float = 0.05) -> dict:
+  """Is a fit converged? `before`, `after`: per-state outcomes of the fitted policy and of the same fit
+  continued (more steps on the same data), on the same states and sampling keys; `curve_rates`: the
+  success rates of its in-fit evaluations. Converged: continuing changes success by less than
+  `max_change`, and the last two in-fit evaluations are within `max_step` of each other."""
+  c = paired_comparison(before, after)
+  last_two = abs(curve_rates[-1] - curve_rates[-2]) if len(curve_rates) >= 2 else None
+  ok = abs(c["difference"]) < max_change and last_two is not None and last_two <= max_step
+  return dict(c, last_two_change=last_two, converged=bool(ok))

@@ -5,7 +5,8 @@
 A record holds the command, the commit, the machine, the config, and the phase records of what it
 measured (`fit`, `evaluate` with the per-state outcomes). The table has a row per record, in file
 order, and compares each row with the first on the same evaluation start states (states gained and
-lost, McNemar's exact p-value).
+lost, McNemar's exact p-value). Records of `python -m soe_jax.bench converge` (with a `check`) get
+the convergence table instead: a row per fitting recipe.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import os
 
 from absl import app
 
-from soe_jax import metrics
+from soe_jax import cli, metrics, runlog
 
 
 def _pct(x: float) -> str:
@@ -28,6 +29,8 @@ def table(study: str) -> str:
   if not paths:
     raise FileNotFoundError(f"no result records (*.json) in {study!r}")
   records = [(os.path.basename(p)[:-5], json.load(open(p))) for p in paths]
+  if all("check" in r for _, r in records):
+    return convergence_table(records)
   first = records[0][1]["evaluate"]["success"]
   md = ["| record | inputs | commit | fit (compile) | final loss | success | obs. features out of range | vs first: gained / lost (p) |",
         "|---|---|---|---|---|---|---|---|"]  # fmt: skip
@@ -43,6 +46,33 @@ def table(study: str) -> str:
   return "\n".join(md) + "\n"
 
 
+def _setting(config: dict, first: dict) -> str:
+  """The fields in which `config` differs from the first record's (or `-`)."""
+  a, b = runlog.flatten(first), runlog.flatten(config)
+  diff = [f"{k}={b.get(k)}" for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
+  return ", ".join(diff) or "-"
+
+
+def convergence_table(records: list[tuple[str, dict]]) -> str:
+  """Records of `python -m soe_jax.bench converge`: the setting (fields differing from the first
+  record's config), the fit, success along it, and the paired check of continuing it."""
+  first = records[0][1]["config"]
+  md = ["| record | setting | commit | steps | fit time (with in-fit evaluations) | in-fit success (50 states) | "
+        "check: fit -> continued (paired states) | difference [95% CI], p | converged |",
+        "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+  for name, r in records:
+    fit, check = r["fit"], r["check"]
+    curve = " / ".join(f"{100 * p['success_rate']:.0f}" for p in fit["eval_curve"])
+    b, a = check["before"], check["after"]
+    md.append(
+      f"| {name} | {_setting(r['config'], first)} | {r['commit']} | {fit['steps']:,} | {fit['time_steps_s']:.0f} s "
+      f"({fit['time_total_s']:.0f} s) | {curve} | {_pct(b['success_rate'])} -> {_pct(a['success_rate'])} "
+      f"(n={b['num_rollouts']}) | {100 * check['difference']:+.1f} [{100 * check['low']:+.1f}, "
+      f"{100 * check['high']:+.1f}] pts, p={check['p_value']:.3f} | {'yes' if check['converged'] else 'no'} |"
+    )
+  return "\n".join(md) + "\n"
+
+
 def main(argv):
   if len(argv) != 2:
     raise app.UsageError("usage: python -m soe_jax.results RESULTS_DIR")
@@ -50,4 +80,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-  app.run(main)
+  cli.run(main, mjx=False)

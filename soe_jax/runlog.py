@@ -90,7 +90,7 @@ def line(record: dict, method: str) -> dict:
   out = {k: record.get(k) for k in LINE_KEYS}
   out.update(method=method, **dict.fromkeys(PHASE_TIMES, 0.0))
   out[f"time_{record['phase']}_s"] = round(record["time_total_s"] - record["time_compile_s"], 2)
-  out.update({k: v for k, v in record.items() if k not in out and k not in ("success", "loss_curve")})
+  out.update({k: v for k, v in record.items() if k not in out and k not in ("success", "loss_curve", "eval_curve")})
   return out
 
 

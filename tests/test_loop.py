@@ -4,6 +4,7 @@ interruption, the shared round 0, re-scoring a checkpoint, and a refused config.
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 
@@ -18,7 +19,7 @@ from soe_jax import aggregate, loop, rundir, runlog
 from soe_jax.errors import UserError
 from soe_jax.rundir import RunDir
 
-TIMING = ("time_compile_s", "time_fit_s", "time_explore_s", "time_evaluate_s", "time_total_s")
+TIMING = ("time_compile_s", "time_fit_s", "time_explore_s", "time_evaluate_s", "time_total_s", "time_steps_s")
 
 
 def _numbers(workdir):
@@ -76,11 +77,11 @@ def test_an_interrupted_run_resumes_to_the_same_numbers(smoke_run, monkeypatch):
   real = loop.Experiment.fit
   calls = []
 
-  def fit_then_stop(self, buf, norm, r, init_state=None):
+  def fit_then_stop(self, buf, norm, r, *args):
     if r == 2:
       calls.append(r)
       raise KeyboardInterrupt
-    return real(self, buf, norm, r, init_state)
+    return real(self, buf, norm, r, *args)
 
   monkeypatch.setattr(loop.Experiment, "fit", fit_then_stop)
   with pytest.raises(KeyboardInterrupt):
@@ -191,6 +192,7 @@ def test_a_rejected_config_writes_nothing(tmp_path):
     ("rounds.select", "best", "known selections: all_successes, first_success"),
     ("rounds.refit", "warm", "known: continue, scratch"),
     ("rounds.refit_lr", -1e-4, r"rounds.refit_lr must be >= 0"),
+    ("rounds.steered", "some", "known: successful, all"),
     ("data.num_demos", -2, "data.num_demos must be at least 1, got -2"),
     ("eval.num_start_states", -3, "eval.num_start_states must be at least 1"),
     ("explore.tries", -1, "explore.tries must be at least 1"),
@@ -285,6 +287,21 @@ def test_a_workdir_saved_before_the_fields_were_renamed_is_refused_naming_them(t
     rundir.load_config(str(tmp_path))
 
 
+def test_a_workdir_saved_before_fields_were_added_reads_them_as_their_old_behaviour(tmp_path):
+  config = lift_config.get_config("smoke")
+  saved = rundir.plain(config)
+  del saved["rounds"]["steered"], saved["fit"]["eval_every"], saved["fit"]["eval_states"]
+  (tmp_path / "config.json").write_text(json.dumps(saved))
+  rundir.check_config(str(tmp_path), config)  # accepted as it is
+  assert rundir.load_config(str(tmp_path)).rounds.steered == "successful"
+  config.rounds.steered = "all"  # a different value is still a different config
+  with pytest.raises(ValueError, match="rounds.steered: 'successful' -> 'all'"):
+    rundir.check_config(str(tmp_path), config)
+  evaluated = lift_config.get_config("smoke")
+  evaluated.fit.eval_every = 10  # in-fit evaluations leave round 0 as it is
+  assert rundir.round0_key(evaluated) == rundir.round0_key(lift_config.get_config("smoke"))
+
+
 def test_compare_explores_each_method_as_its_preset_from_the_shared_round0(smoke_run):
   from soe_jax import compare, configfile
 
@@ -299,27 +316,47 @@ def test_compare_explores_each_method_as_its_preset_from_the_shared_round0(smoke
   assert "| soe_steer |" in open(os.path.join(root, "compare", "compare.md")).read()
 
 
-def test_a_fit_interrupted_midway_resumes_to_the_same_parameters(smoke_run, tmp_path, monkeypatch):
+@pytest.mark.parametrize("stop", ["periodic save", "SIGINT", "SIGTERM"])
+def test_a_fit_interrupted_midway_resumes_to_the_same_parameters(smoke_run, tmp_path, monkeypatch, stop):
+  """Stopped after the first chunk (step 20 of 40): by an exception right after the periodic save, or
+  by a signal, which saves the fit itself (checkpoints off) and then stops."""
   from soe_jax import checkpoint
+  from soe_jax import fit as fit_lib
 
   _, config, workdir, _ = smoke_run
   again = lift_config.get_config("smoke,soe")
   again.rounds.update(num_rounds=0, round0_dir=str(tmp_path / "round0"))
-  real = RunDir.save_partial_fit
+  real_save, real_chunk_fn = RunDir.save_partial_fit, fit_lib._chunk_fn
   saved = []
 
-  def save_then_stop(self, r, state, done, history):
-    real(self, r, state, done, history)
+  def save(self, r, state, done, history):
+    real_save(self, r, state, done, history)
     saved.append(done)
-    raise KeyboardInterrupt
+    if stop == "periodic save":
+      raise KeyboardInterrupt
 
-  monkeypatch.setattr(RunDir, "save_partial_fit", save_then_stop)
+  def chunk_fn(*args):
+    chunk = real_chunk_fn(*args)
+
+    def signalled(*a):
+      out = chunk(*a)
+      os.kill(os.getpid(), getattr(signal, stop))  # arrives while the chunk's results are pending
+      return out
+
+    return signalled
+
+  monkeypatch.setattr(RunDir, "save_partial_fit", save)
+  if stop != "periodic save":
+    again.fit.checkpoint_every = 0
+    monkeypatch.setattr(fit_lib, "_chunk_fn", chunk_fn)
+  handlers = [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)]
   with pytest.raises(KeyboardInterrupt):
     loop.run(again, str(tmp_path / "run"), progress=False)
+  assert [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)] == handlers  # the fit's are gone
   run = RunDir(str(tmp_path / "run"), again)
   assert saved == [20] and os.path.exists(os.path.join(run.partial_fit_dir(0), "progress.json"))
-  assert rundir.status(run.path, again) == "resuming round 0"
-  monkeypatch.setattr(RunDir, "save_partial_fit", real)
+  assert rundir.status(run.path, again) == "resuming round 0 (round 0's fit from step 20)"
+  monkeypatch.undo()
   loop.run(again, str(tmp_path / "run"), progress=False)
   assert not os.path.exists(run.partial_fit_dir(0))  # cleared once the fit finished
   resumed = checkpoint.load(run.ckpt_dir(0)).state
@@ -330,3 +367,42 @@ def test_a_fit_interrupted_midway_resumes_to_the_same_parameters(smoke_run, tmp_
     np.testing.assert_array_equal(a, b)
   fits = [json.load(open(r.phase_path(0, "fit")))["loss_curve"] for r in (run, RunDir(workdir, config))]
   assert fits[0] == fits[1]
+
+
+def test_the_next_fit_takes_only_successful_steered_episodes_unless_told(tmp_path):
+  from soe_jax.data import hdf5
+
+  config = lift_config.get_config("smoke,soe")
+  run = RunDir(str(tmp_path), config)
+  episode = lambda ok: dict(obs={"a": np.zeros((3, 2))}, actions=np.zeros((3, 10)), success=ok)
+  hdf5.write_episodes(run.steered_path(0), [episode(True), episode(False), episode(True)], dict(steered=True))
+  assert [len(s.episodes) for s in run.steered_sets(1)] == [2]
+  assert [len(s.episodes) for s in run.steered_sets(1, only_successful=False)] == [3]
+  assert run.steered_sets(0) == [] and all(s.steered and s.source == 0 for s in run.steered_sets(1))
+
+
+def test_in_fit_evaluations_are_recorded_and_leave_the_fit_as_it_is(smoke_run, tmp_path):
+  """`bench converge` on the smoke run's settings: round 0 with evaluations every 20 steps has the
+  fixture's parameters (fitted without them), then the continuation and the paired check."""
+  from soe_jax import checkpoint
+  from soe_jax.bench import converge
+
+  _, config, workdir, _ = smoke_run
+  result = converge.run(config, str(tmp_path / "converge"), eval_every=20, eval_states=3, check_states=4,
+                        extra=0.5, progress=False)  # fmt: skip
+  curve = result["fit"]["eval_curve"]
+  assert [p["step"] for p in curve] == [20, 40] and all(len(p["success"]) == 3 for p in curve)
+  assert (
+    0 < curve[0]["fit_s"] < curve[1]["fit_s"] <= result["fit"]["time_steps_s"]
+    and curve[1]["wall_s"] > curve[1]["fit_s"]
+  )
+  assert [p["step"] for p in result["continued"]["eval_curve"]] == [20] and result["continued"]["steps"] == 20
+  run = RunDir(str(tmp_path / "converge"), converge.settings(config, 20, 3))
+  with_evals, without = (checkpoint.load(RunDir(w, c).ckpt_dir(0)).state for w, c in
+                         ((run.path, run.config), (workdir, config)))  # fmt: skip
+  for a, b in zip(jax.tree.leaves(with_evals.params), jax.tree.leaves(without.params)):
+    np.testing.assert_array_equal(a, b)
+  check = result["check"]
+  assert check["before"]["num_rollouts"] == check["after"]["num_rollouts"] == 4
+  assert check["gained"] + check["lost"] <= 4 and isinstance(check["converged"], bool)
+  assert "paired states" in converge.curve_lines(result)[-1]

@@ -71,4 +71,23 @@ def test_paired_comparison_counts_gains_and_losses_with_mcnemars_exact_p():
   c = metrics.paired_comparison(before, after)
   assert (c["gained"], c["lost"]) == (6, 1)
   assert abs(c["p_value"] - 2 * (1 + 7) / 2**7) < 1e-12  # 0.125
-  assert metrics.paired_comparison(before, before) == dict(gained=0, lost=0, p_value=1.0)
+  assert abs(c["difference"] - 0.5) < 1e-12
+  # Wald interval of a paired difference: se^2 = ((7 / 10) - 0.5^2) / 10
+  assert abs(c["high"] - c["difference"] - 1.959963984540054 * np.sqrt(0.045)) < 1e-12
+  same = metrics.paired_comparison(before, before)
+  assert (same["gained"], same["lost"], same["p_value"], same["low"], same["high"]) == (0, 0, 1.0, 0.0, 0.0)
+
+
+def test_convergence_needs_a_small_paired_change_and_a_flat_curve():
+  rng = np.random.default_rng(0)
+  before = rng.random(400) < 0.7
+  after = before.copy()
+  after[:8] = ~after[:8]  # 8 of 400 states change: at most 2 points either way
+  flat, rising = [0.60, 0.70, 0.72], [0.50, 0.60, 0.70]
+  check = metrics.convergence(before, after, flat)
+  assert check["converged"] and abs(check["difference"]) <= 0.02 and check["low"] < check["difference"] < check["high"]
+  assert not metrics.convergence(before, after, rising)["converged"]  # the last two 10 points apart
+  assert not metrics.convergence(before, after, [0.7])["converged"]  # one point is no curve
+  better = before.copy()
+  better[~before] = True  # every failure becomes a success: far more than 3 points
+  assert not metrics.convergence(before, better, flat)["converged"]

@@ -4,6 +4,8 @@ python -m soe_jax.bench env --task=square --num_envs=256 [--backend=mujoco|mjx] 
 python -m soe_jax.bench fit --config=configs/square.py [--bypass=on|off] [--ema=on|off]
 python -m soe_jax.bench sample --config=configs/square.py --batch=1 --steps=10
 python -m soe_jax.bench rollout --config=configs/lift.py:cpu --strategy=soe --num_envs=100
+python -m soe_jax.bench converge --config=configs/lift.py:cpu [--eval_every=1000 --eval_states=50
+    --check_states=400 --extra=0.5 --workdir=DIR --out=results/<study>/<name>.json]
 """
 
 from __future__ import annotations
@@ -12,6 +14,8 @@ import json
 
 from absl import app, flags
 from ml_collections import config_flags
+
+from soe_jax import cli
 
 flags.DEFINE_string("task", "lift", "Task name (env).")
 flags.DEFINE_integer("num_envs", 64, "Batch of environments (env).")
@@ -33,12 +37,19 @@ flags.DEFINE_string(
   "",
   "rollout: exploration strategy (dp, sime, soe, soe_steer, expert; default the config's, with its settings).",
 )
+flags.DEFINE_integer("eval_every", 1000, "converge: fit steps between in-fit evaluations.")
+flags.DEFINE_integer("eval_states", 50, "converge: start states of each in-fit evaluation.")
+flags.DEFINE_integer("check_states", 400, "converge: paired start states of the convergence check.")
+flags.DEFINE_float("extra", 0.5, "converge: the continuation's steps, as a fraction of the fit's.")
+flags.DEFINE_string("workdir", None, "converge: its run directory (default runs/converge/<round-0 key>).")
+flags.DEFINE_string("out", None, "converge: also write the result record (for results/) here.")
+flags.DEFINE_bool("progress", True, "converge: progress bars.")
 config_flags.DEFINE_config_file(
-  "config", None, "fit / sample / rollout: configs/<task>.py[:PRESETS].", lock_config=True
+  "config", None, "fit / sample / rollout / converge: configs/<task>.py[:PRESETS].", lock_config=True
 )
 FLAGS = flags.FLAGS
 
-BENCHMARKS = ("env", "fit", "sample", "rollout")
+BENCHMARKS = ("env", "fit", "sample", "rollout", "converge")
 
 
 def main(argv):
@@ -49,7 +60,7 @@ def main(argv):
   compile_cache.enable()
   sharding.maybe_initialize_distributed()
   what = argv[1]
-  if what in ("fit", "sample", "rollout") and FLAGS.config is None:
+  if what in ("fit", "sample", "rollout", "converge") and FLAGS.config is None:
     raise app.UsageError(f"bench {what} needs --config=configs/<task>.py[:PRESETS]")
   if what == "env":
     from soe_jax.bench import env
@@ -59,6 +70,18 @@ def main(argv):
     from soe_jax.bench import policy
 
     result = policy.fit(FLAGS.config, FLAGS.bypass == "on", FLAGS.ema == "on", FLAGS.steps or 10, FLAGS.repeats or 2)
+  elif what == "converge":
+    from soe_jax.bench import converge
+
+    result = converge.run(FLAGS.config, FLAGS.workdir, FLAGS.eval_every, FLAGS.eval_states, FLAGS.check_states,
+                          FLAGS.extra, FLAGS.progress)  # fmt: skip
+    print("\n".join(converge.curve_lines(result)))
+    if FLAGS.out:
+      converge.write_record(result, FLAGS.out)
+    result = dict(
+      converged=result["check"]["converged"],
+      **{k: result["check"][k] for k in ("difference", "low", "high", "p_value")},
+    )
   elif what == "rollout":
     from soe_jax.bench import rollout
 
@@ -71,4 +94,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-  app.run(main)
+  cli.run(main)
