@@ -72,7 +72,8 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
         ),
       ),
       encoder=dict(name="lowdim", kwargs={}),
-      bypass=dict(enabled=True, latent_dim=16, hidden=256, beta=1e-3),
+      # bypass.batch_fraction: the share of each batch the IB path's head loss uses (1: all of it).
+      bypass=dict(enabled=True, latent_dim=16, hidden=256, beta=1e-3, batch_fraction=1.0),
       normalizer_margin=0.1,
     )
   )

@@ -39,7 +39,12 @@ NOT_ROUND0 = ("method", "explore", "rounds")
 NOT_ROUND0_FIELDS = ("fit.eval_every", "fit.eval_states")
 # Fields added since configs were first saved, with the value that does what a config without them
 # did: a saved config lacking one reads as having that value.
-ADDED = {"rounds.steered": "successful", "fit.eval_every": 0, "fit.eval_states": 50}
+ADDED = {
+  "rounds.steered": "successful",
+  "fit.eval_every": 0,
+  "fit.eval_states": 50,
+  "policy.bypass.batch_fraction": 1.0,
+}
 # Fields of configs saved before they moved: old name -> new name ("a.b." is a whole section).
 RENAMED = {
   "env.horizon": "env.episode_length",
@@ -142,9 +147,13 @@ def load_config(workdir: str) -> ml_collections.ConfigDict:
 
 def round0_key(config: ml_collections.ConfigDict) -> str:
   fields = {k: v for k, v in plain(config).items() if k not in NOT_ROUND0}
-  for field in NOT_ROUND0_FIELDS:
-    section, name = field.split(".")
-    fields[section].pop(name, None)
+  for field in NOT_ROUND0_FIELDS + tuple(ADDED):  # added fields only where they do what their absence did
+    *sections, name = field.split(".")
+    d = fields
+    for part in sections:
+      d = d.get(part, {})
+    if name in d and (field in NOT_ROUND0_FIELDS or d[name] == ADDED[field]):
+      del d[name]
   fields["checkpoint_format"] = checkpoint.FORMAT  # a round 0 saved in another format is not reused
   digest = hashlib.sha1(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:10]
   return f"{config.env.task}-{digest}"

@@ -53,8 +53,8 @@ def run(
     raise UserError(f"need eval_every >= 1, check_states >= 1, extra > 0; got {eval_every}, {check_states}, {extra}")
   validation.check(config)
   workdir = workdir or os.path.join("runs", "converge", rundir.round0_key(config))
-  run_dir = RunDir.create(workdir, config)
   print(f"workdir {workdir}: {rundir.status(workdir, config)}", flush=True)
+  run_dir = RunDir.create(workdir, config)
   with runlog.RunLog(workdir) as log:
     exp = loop.Experiment(config, run_dir, progress, log)
     try:

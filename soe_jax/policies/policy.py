@@ -40,6 +40,9 @@ class Policy:
   bypass: bool
   beta: float
   cond_dim: int
+  # The share of each batch the IB path's head loss is computed on (its first rows, a random subset of
+  # the sampled windows): the bypass's extra head pass costs that share of a full one.
+  bypass_fraction: float = 1.0
   # A batch of one observation history in the encoder's format (arrays: left out of hashing).
   example_obs: object = dataclasses.field(default=None, compare=False, hash=False)
 
@@ -73,10 +76,11 @@ class Policy:
     aux = {"loss_il": loss_il}
     if not self.bypass:
       return loss_il, aux
-    mu, log_std = self.latent(params, jax.lax.stop_gradient(cond))
+    m = max(1, round(self.bypass_fraction * cond.shape[0]))
+    mu, log_std = self.latent(params, jax.lax.stop_gradient(cond[:m]))
     z = mu + jnp.exp(log_std) * jax.random.normal(key_z, mu.shape)
     cond_tilde = self.decode_latent(params, z)
-    loss_ib_head, _ = self.head.loss(jax.lax.stop_gradient(params["head"]), cond_tilde, batch["actions"], key_ib)
+    loss_ib_head, _ = self.head.loss(jax.lax.stop_gradient(params["head"]), cond_tilde, batch["actions"][:m], key_ib)
     kl = jnp.mean(vib.kl_standard_normal(mu, log_std))
     loss_ib = loss_ib_head + self.beta * kl
     aux.update(loss_ib=loss_ib, loss_ib_head=loss_ib_head, kl=kl, latent_std=jnp.mean(jnp.exp(log_std)))
@@ -98,7 +102,7 @@ class Policy:
 
 def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int) -> Policy:
   """From `config.policy`-shaped settings: head {name, kwargs}, encoder {name, kwargs}, bypass
-  {enabled, latent_dim, hidden, beta}, n_obs_steps, horizon, n_action_steps."""
+  {enabled, latent_dim, hidden, beta, batch_fraction}, n_obs_steps, horizon, n_action_steps."""
   head = registry.make_head(
     config.head.name, action_dim=action_dim, horizon=config.horizon, **config.head.get("kwargs", {})
   )
@@ -123,5 +127,6 @@ def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int
     bypass=bool(bp.enabled),
     beta=float(bp.beta),
     cond_dim=int(cond_dim),
+    bypass_fraction=float(bp.get("batch_fraction", 1.0)),
     example_obs=example,
   )

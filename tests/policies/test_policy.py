@@ -12,13 +12,15 @@ from soe_jax.policies.policy import make_policy
 
 
 def _config(head="diffusion_unet", bypass=True, **head_kwargs):
+  """`bypass`: on/off, or a dict of settings over the defaults (on)."""
   kwargs = dict(down_dims=(16, 32, 64), step_embed_dim=32) if head != "mlp" else dict(hidden=(64, 64))
   kwargs.update(head_kwargs)
   return ml_collections.ConfigDict(
     dict(
       head=dict(name=head, kwargs=kwargs),
       encoder=dict(name="lowdim", kwargs={}),
-      bypass=dict(enabled=bypass, latent_dim=4, hidden=32, beta=1e-3),
+      bypass=dict(enabled=bool(bypass), latent_dim=4, hidden=32, beta=1e-3)
+      | (bypass if isinstance(bypass, dict) else {}),
       n_obs_steps=2,
       horizon=16,
       n_action_steps=8,
@@ -87,6 +89,18 @@ def test_bypass_does_not_change_the_base_policy_and_loss_falls():
     np.testing.assert_allclose(a, b, **chex_tol)
   np.testing.assert_allclose(losses, losses_without, **chex_tol)
   assert np.mean(losses[-20:]) < 0.5 * np.mean(losses[:5])
+
+
+def test_the_ib_path_on_a_sub_batch_is_its_loss_on_the_first_rows():
+  full = make_policy(_config(), 5, 3)
+  quarter = make_policy(_config(bypass=dict(batch_fraction=0.25)), 5, 3)
+  params, batch, key = full.init(jax.random.PRNGKey(0)), _batch(jax.random.PRNGKey(1), b=8), jax.random.PRNGKey(2)
+  _, aux_full = full.loss(params, batch, key)
+  _, aux_quarter = quarter.loss(params, batch, key)
+  _, aux_first = full.loss(params, jax.tree.map(lambda x: x[:2], batch), key)
+  assert aux_quarter["loss_il"] == aux_full["loss_il"]  # the base path still sees the whole batch
+  np.testing.assert_allclose(aux_quarter["loss_ib"], aux_first["loss_ib"], rtol=1e-6)
+  assert not np.isclose(aux_quarter["loss_ib"], aux_full["loss_ib"])
 
 
 def test_unknown_head_lists_known_ones():
