@@ -402,6 +402,7 @@ def test_in_fit_evaluations_are_recorded_and_leave_the_fit_as_it_is(smoke_run, t
                          ((run.path, run.config), (workdir, config)))  # fmt: skip
   for a, b in zip(jax.tree.leaves(with_evals.params), jax.tree.leaves(without.params)):
     np.testing.assert_array_equal(a, b)
+  assert {"command", "commit", "machine", "config"} <= set(result)
   check = result["check"]
   assert check["before"]["num_rollouts"] == check["after"]["num_rollouts"] == 4
   assert check["gained"] + check["lost"] <= 4 and isinstance(check["converged"], bool)

@@ -47,7 +47,9 @@ def run(
   extra: float = 0.5,
   progress: bool = True,
 ) -> dict:
-  """-> {"curve": round 0's in-fit evaluations, "continued_curve", "check": metrics.convergence, ...}."""
+  """-> {command, commit, machine, round0_dir, config, fit: round 0's fit record (with its in-fit
+  evaluations), continued: the continuation's, check: metrics.convergence with both evaluations}."""
+  source = provenance.header()  # the code as it was when the measurement started
   config = settings(config, eval_every, eval_states)
   if eval_every < 1 or check_states < 1 or not 0 < extra:
     raise UserError(f"need eval_every >= 1, check_states >= 1, extra > 0; got {eval_every}, {check_states}, {extra}")
@@ -80,6 +82,7 @@ def run(
     finally:
       exp.timer.close()
   return dict(
+    source,
     round0_dir=os.path.basename(run_dir.round0),
     config=rundir.plain(config),
     fit=fit0,
@@ -112,6 +115,6 @@ def curve_lines(result: dict) -> list[str]:
 
 
 def write_record(result: dict, path: str) -> None:
-  """The committed record: provenance, then the result."""
+  """The committed record (provenance first)."""
   os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-  rundir.write_json(path, dict(provenance.header(), **result))
+  rundir.write_json(path, result)
