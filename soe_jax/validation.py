@@ -62,7 +62,7 @@ def problems(config: ml_collections.ConfigDict) -> list[str]:
     out.append(f"unknown rounds.steered {config.rounds.steered!r}; known: {', '.join(STEERED)}")
   out += [f"{f} must be at least 1, got {_get(config, f)}" for f in POSITIVE if _get(config, f) < 1]
   out += [f"{f} must be >= 0, got {_get(config, f)}" for f in NON_NEGATIVE if _get(config, f) < 0]
-  if not 0 < config.policy.bypass.get("batch_fraction", 1.0) <= 1:
+  if not 0 < config.policy.bypass.batch_fraction <= 1:
     out.append(f"policy.bypass.batch_fraction must be in (0, 1], got {config.policy.bypass.batch_fraction}")
   if config.fit.lr <= 0:
     out.append(f"fit.lr must be > 0, got {config.fit.lr}")

@@ -193,6 +193,7 @@ def test_a_rejected_config_writes_nothing(tmp_path):
     ("rounds.refit", "warm", "known: continue, scratch"),
     ("rounds.refit_lr", -1e-4, r"rounds.refit_lr must be >= 0"),
     ("rounds.steered", "some", "known: successful, all"),
+    ("policy.bypass.batch_fraction", 0.0, r"batch_fraction must be in \(0, 1\]"),
     ("data.num_demos", -2, "data.num_demos must be at least 1, got -2"),
     ("eval.num_start_states", -3, "eval.num_start_states must be at least 1"),
     ("explore.tries", -1, "explore.tries must be at least 1"),

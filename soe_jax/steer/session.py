@@ -61,7 +61,7 @@ class SteeringSession:
     self.data = mujoco.MjData(self.env.mj_model)
     self.saved = 0
     self.last_saved = None  # {"success": bool, "used": bool} of the episode saved last
-    self.used_in_fit = "successful only" if self.config.rounds.get("steered", "successful") == "successful" else "all"
+    self.used_in_fit = self.config.rounds.steered  # successful | all
     self.reset(seed)
 
   def warm(self) -> None:
