@@ -106,11 +106,12 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   # Rounds after round 0: select episodes (first_success | all_successes | sime), append, re-fit
   # (continue from the previous round's parameters for refit_steps at a peak lr of refit_lr, 0 meaning
   # fit.lr; or scratch), evaluate.
+  # refit_ema: a continued re-fit's EMA restarts from the parameters (restart) or goes on (carry).
   # steered: which episodes saved from the steering page the next fit takes (successful | all).
   # round0_dir: where the shared round 0 lives ("" = <workdir>/../round0).
   c.rounds = ml_collections.ConfigDict(
     dict(num_rounds=3, select="first_success", refit="continue", refit_steps=10_000, refit_lr=0.0,
-         steered="successful", round0_dir="")
+         refit_ema="restart", steered="successful", round0_dir="")
   )  # fmt: skip
   return c
 

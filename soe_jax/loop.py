@@ -124,7 +124,8 @@ class Experiment:
 
   def fit(self, buf, norm, r: int, init_state=None, steps: int | None = None):
     """Round 0 / scratch: fresh parameters, `fit.num_steps` at `fit.lr`; continue: from `init_state`,
-    `rounds.refit_steps` at `rounds.refit_lr` (0: `fit.lr`). `steps` overrides the number of steps.
+    `rounds.refit_steps` at `rounds.refit_lr` (0: `fit.lr`), its EMA restarted from the parameters or
+    carried on (`rounds.refit_ema`). `steps` overrides the number of steps.
     With `fit.eval_every`, the EMA policy is evaluated along the way (`eval_curve` in the record)."""
     c = self.config
     if init_state is None:
@@ -136,6 +137,9 @@ class Experiment:
     tx = self.optimizer(steps, lr)
     # fit donates its input state: build it from copies, so `norm` and `init_state` stay usable.
     state = jax.tree.map(jnp.copy, train_state.create(params, tx, norm, ema=c.fit.ema))
+    if init_state is not None and c.rounds.refit_ema == "carry" and init_state.ema_params is not None:
+      # The EMA goes on from the previous fit's (its step too, so its decay does), as one long fit's would.
+      state = state.replace(ema_params=jax.tree.map(jnp.copy, init_state.ema_params), step=jnp.copy(init_state.step))
     start, history = 0, []
     if (partial := self.run.partial_fit(r)) is not None:  # an interrupted fit: continue it
       state, start, history = partial

@@ -118,6 +118,27 @@ def test_a_continued_refit_runs_at_its_own_learning_rate(smoke_run):
   assert max(moved) > 1e-4  # at fit.lr the same re-fit moves them
 
 
+def test_a_continued_refit_restarts_or_carries_the_ema(smoke_run):
+  from soe_jax import checkpoint
+
+  _, config, workdir, _ = smoke_run
+  from soe_jax.data.episodes import EpisodeSet, build_buffer
+
+  run = RunDir(workdir, config)
+  base = checkpoint.load(run.ckpt_dir(0)).state
+  steps = {}
+  for mode in ("restart", "carry"):
+    c = lift_config.get_config("smoke,soe")
+    c.rounds.refit_ema = mode
+    exp = loop.Experiment(c, RunDir(str(workdir) + "-" + mode, c), progress=False)
+    buf = build_buffer(c, exp.policy, [EpisodeSet(run.demonstrations(), 0)])
+    state, _ = exp.fit(buf, base.normalizer, 1, base)
+    steps[mode] = (int(state.step), state.ema_params)
+  assert (steps["restart"][0], steps["carry"][0]) == (20, 60)  # carried: the decay goes on from round 0's 40
+  leaves = [jax.tree.leaves(steps[m][1]) for m in ("restart", "carry")]
+  assert any(not np.array_equal(a, b) for a, b in zip(*leaves))
+
+
 def test_a_different_config_is_refused_naming_the_fields(smoke_run):
   _, config, workdir, _ = smoke_run
   changed = lift_config.get_config("smoke,soe")
@@ -193,6 +214,7 @@ def test_a_rejected_config_writes_nothing(tmp_path):
     ("rounds.refit", "warm", "known: continue, scratch"),
     ("rounds.refit_lr", -1e-4, r"rounds.refit_lr must be >= 0"),
     ("rounds.steered", "some", "known: successful, all"),
+    ("rounds.refit_ema", "keep", "known: restart, carry"),
     ("policy.bypass.batch_fraction", 0.0, r"batch_fraction must be in \(0, 1\]"),
     ("data.num_demos", -2, "data.num_demos must be at least 1, got -2"),
     ("eval.num_start_states", -3, "eval.num_start_states must be at least 1"),
