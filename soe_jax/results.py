@@ -17,7 +17,7 @@ import os
 
 from absl import app
 
-from soe_jax import cli, metrics, runlog
+from soe_jax import cli, metrics, rundir, runlog
 
 
 def _pct(x: float) -> str:
@@ -48,7 +48,7 @@ def table(study: str) -> str:
 
 def _setting(config: dict, first: dict) -> str:
   """The fields in which `config` differs from the first record's (or `-`)."""
-  a, b = runlog.flatten(first), runlog.flatten(config)
+  a, b = (runlog.flatten(rundir.with_added(c)) for c in (first, config))  # older records lack added fields
   diff = [f"{k}={b.get(k)}" for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
   return ", ".join(diff) or "-"
 
@@ -80,4 +80,4 @@ def main(argv):
 
 
 if __name__ == "__main__":
-  cli.run(main, mjx=False)
+  cli.run(main)
