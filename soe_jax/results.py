@@ -17,7 +17,7 @@ import os
 
 from absl import app
 
-from soe_jax import cli, metrics, rundir, runlog
+from soe_jax import cli, metrics, runlog
 
 
 def _pct(x: float) -> str:
@@ -48,6 +48,8 @@ def table(study: str) -> str:
 
 def _setting(config: dict, first: dict) -> str:
   """The fields in which `config` differs from the first record's (or `-`)."""
+  from soe_jax import rundir  # (imports MuJoCo: after the command's quiet start)
+
   a, b = (runlog.flatten(rundir.with_added(c)) for c in (first, config))  # older records lack added fields
   diff = [f"{k}={b.get(k)}" for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
   return ", ".join(diff) or "-"
