@@ -41,6 +41,7 @@ NOT_ROUND0_FIELDS = ("fit.eval_every", "fit.eval_states")
 # did: a saved config lacking one reads as having that value.
 ADDED = {
   "rounds.steered": "successful",
+  "rounds.refit_ema": "restart",
   "fit.eval_every": 0,
   "fit.eval_states": 50,
   "policy.bypass.batch_fraction": 1.0,
