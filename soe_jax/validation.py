@@ -21,8 +21,8 @@ STEERED = ("successful", "all")  # which steered episodes a fit takes
 # Fields that count something: at least 1.
 POSITIVE = ("env.episode_length", "data.num_demos", "data.capacity", "data.max_length", "policy.n_obs_steps",
             "policy.horizon", "policy.n_action_steps", "fit.num_steps", "fit.batch_size", "fit.chunk_size",
-            "rollout.decisions_per_call", "explore.num_start_states", "explore.tries", "eval.num_start_states", "fit.eval_states",
-            "rounds.refit_steps")  # fmt: skip
+            "fit.eval_states", "rollout.decisions_per_call", "explore.num_start_states", "explore.tries",
+            "eval.num_start_states", "rounds.refit_steps")  # fmt: skip
 NON_NEGATIVE = (
   "rollout.slice_size",
   "rounds.num_rounds",

@@ -4,8 +4,9 @@ The session holds the simulator state (one environment, C engine), the observati
 episode so far. `proposals(dim)` decodes proposals along one effective latent dimension and keeps a
 diverse few (farthest point sampling); `execute(id)` runs the chosen one open loop. `save()` appends
 the finished episode, marked as steered and with its success, to `data/steered_round_<R>.hdf5` in the
-run; the next round's fit takes the successful ones (all of them with `rounds.steered="all"`). Every request is checked first (unknown proposal id, wrong round, finished episode) and
-a bad one raises `SteeringError` without changing anything.
+run; the next round's fit takes the successful ones (all of them with `rounds.steered="all"`). Every
+request is checked first (unknown proposal id, wrong round, unfinished or finished episode) and a bad
+one raises `SteeringError` without changing anything.
 """
 
 from __future__ import annotations
@@ -54,8 +55,8 @@ class SteeringSession:
     self._candidates = jax.jit(lambda agent, hist, key, dim: self.steer.candidates(agent, hist, key, (dim,)))
     buf = build_buffer(self.config, self.policy, [EpisodeSet(self.run.demonstrations(), 0)])
     self.snr = np.asarray(self.steer.snr(self.agent, buf, jax.random.PRNGKey(0)))
-    effective = steering.effective_dims(self.snr, self.steer.threshold_db)
-    self.dims = effective or (int(np.argmax(self.snr)),)  # with none above the threshold: the strongest
+    # With no dimension above the threshold: the strongest (the page says it carries little signal).
+    self.dims = steering.effective_dims(self.snr, self.steer.threshold_db) or (int(np.argmax(self.snr)),)
     self.image_size = image_size
     self.renderer = None  # made on first use, on the thread that renders
     self.data = mujoco.MjData(self.env.mj_model)
