@@ -43,4 +43,4 @@ def run(
   if mjx:
     with contextlib.redirect_stdout(io.StringIO()):  # MJX prints that the optional warp is missing
       import mujoco.mjx  # noqa: F401
-  app.run(wrapped, **({"flags_parser": flags_parser} if flags_parser else {}))
+  app.run(wrapped, flags_parser=flags_parser or app.parse_flags_with_usage)

@@ -93,8 +93,9 @@ class Experiment:
     )
 
   def evaluate(self, state, r: int, num_states: int | None = None, key=None, progress: bool | None = None) -> dict:
-    """The base path from the first `num_states` (default `eval.num_start_states`) start states of the
-    evaluation seed, sampling with `key` (default: round r's evaluation key)."""
+    """The base path from `num_states` (default `eval.num_start_states`) start states split from the
+    evaluation seed (which states depends on the count), sampling with `key` (default: round r's
+    evaluation key)."""
     n = int(num_states or self.config.eval.num_start_states)
     keys = jax.random.split(jax.random.PRNGKey(int(self.config.eval.seed)), n)
     key = self.key(r, _EVALUATE) if key is None else key
