@@ -6,7 +6,9 @@ A record holds the command, the commit, the machine, the config, and the phase r
 measured (`fit`, `evaluate` with the per-state outcomes). The table has a row per record, in file
 order, and compares each row with the first on the same evaluation start states (states gained and
 lost, McNemar's exact p-value). Records of `python -m soe_jax.bench converge` (with a `check`) get
-the convergence table instead: a row per fitting recipe.
+the convergence table instead: a row per fitting recipe; records of `python -m soe_jax.bench latent`
+(with a `latent`) the latent table: effective dimensions and exploration, paired episode by episode
+with the first record's.
 """
 
 from __future__ import annotations
@@ -31,6 +33,8 @@ def table(study: str) -> str:
   records = [(os.path.basename(p)[:-5], json.load(open(p))) for p in paths]
   if all("check" in r for _, r in records):
     return convergence_table(records)
+  if all("latent" in r for _, r in records):
+    return latent_table(records)
   first = records[0][1]["evaluate"]["success"]
   md = ["| record | inputs | commit | fit (compile) | final loss | success | obs. features out of range | vs first: gained / lost (p) |",
         "|---|---|---|---|---|---|---|---|"]  # fmt: skip
@@ -71,6 +75,26 @@ def convergence_table(records: list[tuple[str, dict]]) -> str:
       f"({fit['time_total_s']:.0f} s) | {curve} | {_pct(b['success_rate'])} -> {_pct(a['success_rate'])} "
       f"(n={b['num_rollouts']}) | {100 * check['difference']:+.1f} [{100 * check['low']:+.1f}, "
       f"{100 * check['high']:+.1f}] pts, p={check['p_value']:.3f} | {'yes' if check['converged'] else 'no'} |"
+    )
+  return "\n".join(md) + "\n"
+
+
+def latent_table(records: list[tuple[str, dict]]) -> str:
+  """Records of `python -m soe_jax.bench latent`: the setting, the effective dimensions (SNR above the
+  threshold, highest first, with the highest SNR), and the exploration, compared episode by episode with
+  the first record's (the same start states and keys)."""
+  first = records[0][1]
+  md = ["| record | setting | commit | effective dims (SNR > 0 dB) | highest SNR | exploration success | Pass@k | jerk | "
+        "vs first: gained / lost (p) |",
+        "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+  for name, r in records:
+    lat, ex = r["latent"], r["explore"]
+    c = metrics.paired_comparison(first["explore"]["success"], ex["success"])
+    md.append(
+      f"| {name} | {_setting(r['config'], first['config'])} | {r['commit']} | {len(lat['effective_dims'])} "
+      f"{lat['effective_dims']} | {max(lat['snr_db']):.1f} dB | {_pct(ex['success_rate'])} [{_pct(ex['wilson_low'])}, "
+      f"{_pct(ex['wilson_high'])}] (n={ex['num_rollouts']}) | {_pct(ex['pass_at_k'])} (k={ex['k']}) | {ex['jerk']:.1f} "
+      f"| {c['gained']} / {c['lost']} (p={c['p_value']:.3f}) |"
     )
   return "\n".join(md) + "\n"
 

@@ -436,3 +436,19 @@ def test_in_fit_evaluations_are_recorded_and_leave_the_fit_as_it_is(smoke_run, t
   assert check["before"]["num_rollouts"] == check["after"]["num_rollouts"] == 4
   assert check["gained"] + check["lost"] <= 4 and isinstance(check["converged"], bool)
   assert "paired states" in converge.curve_lines(result)[-1]
+
+
+def test_the_latent_benchmark_explores_as_the_run_did_and_names_the_dimensions_above_0_db(smoke_run):
+  """`bench latent` beside the smoke run shares its round 0; its exploration is round 1's, episode for
+  episode, and the effective dimensions are the SNR's above 0 dB, highest first."""
+  from soe_jax.bench import latent
+
+  root, config, workdir, _ = smoke_run
+  result = latent.run(config, str(root / "latent"), windows=64, progress=False)
+  snr = result["latent"]["snr_db"]
+  assert len(snr) == config.policy.bypass.latent_dim
+  assert result["latent"]["effective_dims"] == sorted((i for i in range(len(snr)) if snr[i] > 0), key=lambda i: -snr[i])
+  ran = rundir.read_json(RunDir(workdir, config).phase_path(1, "explore"))
+  assert result["explore"]["success"] == ran["success"] and result["explore"]["jerk"] == pytest.approx(ran["jerk"])
+  assert result["round0_dir"] == os.path.basename(RunDir(workdir, config).round0)
+  assert "effective dimensions (above 0 dB)" in latent.summary_lines(result)[1]

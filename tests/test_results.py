@@ -35,3 +35,19 @@ def test_convergence_records_get_a_row_per_recipe_naming_what_differs(tmp_path):
   rows = results.table(str(tmp_path)).splitlines()[2:]
   assert rows[0].startswith("| 01 | - | abc | 100 | 10 s (12 s) | 50 / 60 | 25.0% -> 75.0% (n=4) | +50.0")
   assert rows[0].endswith("| no |") and rows[1].startswith("| 02 | fit.lr=0.001 |") and "+0.0 [+0.0, +0.0]" in rows[1]
+
+
+def test_latent_records_get_effective_dimensions_and_exploration_paired_with_the_first(tmp_path):
+  def record(fraction, snr, success):
+    ex = dict(success=success, success_rate=sum(success) / len(success), wilson_low=0.1, wilson_high=0.9,
+              num_rollouts=len(success), pass_at_k=0.5, k=2, jerk=3.0)  # fmt: skip
+    dims = [i for i in sorted(range(len(snr)), key=lambda i: -snr[i]) if snr[i] > 0]
+    config = dict(policy=dict(bypass=dict(batch_fraction=fraction)))
+    return dict(commit="abc", config=config, latent=dict(snr_db=snr, effective_dims=dims), explore=ex)
+
+  (tmp_path / "01.json").write_text(json.dumps(record(1.0, [3.0, -1.0, 5.0], [1, 1, 0, 0])))
+  (tmp_path / "02.json").write_text(json.dumps(record(0.25, [-2.0, 1.0, -1.0], [0, 1, 1, 1])))
+  rows = results.table(str(tmp_path)).splitlines()[2:]
+  assert rows[0].startswith("| 01 | - | abc | 2 [2, 0] | 5.0 dB | 50.0%") and rows[0].endswith("| 0 / 0 (p=1.000) |")
+  assert rows[1].startswith("| 02 | policy.bypass.batch_fraction=0.25 | abc | 1 [1] | 1.0 dB | 75.0%")
+  assert rows[1].endswith("| 2 / 1 (p=1.000) |")

@@ -6,6 +6,7 @@ python -m soe_jax.bench sample --config=configs/square.py --batch=1 --steps=10
 python -m soe_jax.bench rollout --config=configs/lift.py:cpu --strategy=soe --num_envs=100
 python -m soe_jax.bench converge --config=configs/lift.py:cpu [--eval_every=1000 --eval_states=50
     --check_states=400 --extra=0.5 --workdir=DIR --out=results/<study>/<name>.json]
+python -m soe_jax.bench latent --config=configs/lift.py:cpu [--windows=4096 --workdir=DIR --out=FILE]
 """
 
 from __future__ import annotations
@@ -41,15 +42,16 @@ flags.DEFINE_integer("eval_every", 1000, "converge: fit steps between in-fit eva
 flags.DEFINE_integer("eval_states", 50, "converge: start states of each in-fit evaluation.")
 flags.DEFINE_integer("check_states", 400, "converge: paired start states of the convergence check.")
 flags.DEFINE_float("extra", 0.5, "converge: the continuation's steps, as a fraction of the fit's.")
-flags.DEFINE_string("workdir", None, "converge: its run directory (default runs/converge/<round-0 key>).")
-flags.DEFINE_string("out", None, "converge: also write the result record (for results/) here.")
-flags.DEFINE_bool("progress", True, "converge: progress bars.")
+flags.DEFINE_integer("windows", 4096, "latent: observation histories of the round-0 data the SNR is taken over.")
+flags.DEFINE_string("workdir", None, "converge / latent: its run directory (default runs/<benchmark>/<round-0 key>...).")
+flags.DEFINE_string("out", None, "converge / latent: also write the result record (for results/) here.")
+flags.DEFINE_bool("progress", True, "converge / latent: progress bars.")
 config_flags.DEFINE_config_file(
-  "config", None, "fit / sample / rollout / converge: configs/<task>.py[:PRESETS].", lock_config=True
+  "config", None, "fit / sample / rollout / converge / latent: configs/<task>.py[:PRESETS].", lock_config=True
 )
 FLAGS = flags.FLAGS
 
-BENCHMARKS = ("env", "fit", "sample", "rollout", "converge")
+BENCHMARKS = ("env", "fit", "sample", "rollout", "converge", "latent")
 
 
 def main(argv):
@@ -60,7 +62,7 @@ def main(argv):
   compile_cache.enable()
   sharding.maybe_initialize_distributed()
   what = argv[1]
-  if what in ("fit", "sample", "rollout", "converge") and FLAGS.config is None:
+  if what in ("fit", "sample", "rollout", "converge", "latent") and FLAGS.config is None:
     raise app.UsageError(f"bench {what} needs --config=configs/<task>.py[:PRESETS]")
   if what == "env":
     from soe_jax.bench import env
@@ -82,6 +84,14 @@ def main(argv):
       converged=result["check"]["converged"],
       **{k: result["check"][k] for k in ("difference", "low", "high", "p_value")},
     )
+  elif what == "latent":
+    from soe_jax.bench import converge, latent
+
+    result = latent.run(FLAGS.config, FLAGS.workdir, FLAGS.windows, FLAGS.progress)
+    print("\n".join(latent.summary_lines(result)))
+    if FLAGS.out:
+      converge.write_record(result, FLAGS.out)
+    result = dict(effective_dims=result["latent"]["effective_dims"], explore_success=result["explore"]["success_rate"])
   elif what == "rollout":
     from soe_jax.bench import rollout
 

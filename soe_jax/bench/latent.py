@@ -1,0 +1,79 @@
+"""The latent a round-0 fit learned, and what exploring with it finds.
+
+  python -m soe_jax.bench latent --config=configs/lift.py:cpu [--windows=4096] [--workdir=DIR]
+      [--out=results/<study>/<name>.json]
+
+1. Round 0 as `main` runs it (demonstrations, fit, evaluation; shared with runs of the same settings).
+2. The SNR of each latent dimension over `windows` observation histories of the round-0 data (DESIGN.md,
+   "Steering"), and the effective dimensions: those above 0 dB.
+3. Round 1's exploration exactly as `main` runs it (the config's strategy, `explore.num_start_states`
+   x `tries`, round 1's start states and keys), so two recipes' explorations are paired episode by
+   episode.
+
+Each step is a saved phase of the workdir (default `runs/latent/<round-0 key>-<strategy>`), so an
+interrupted benchmark resumes. `--out` writes the record for `results/`."""
+
+from __future__ import annotations
+
+import os
+
+import ml_collections
+
+from soe_jax import loop, provenance, rundir, runlog, validation
+from soe_jax.data.episodes import EpisodeSet, build_buffer
+from soe_jax.explore import steering
+from soe_jax.rundir import RunDir
+
+_SNR = 6  # key stream of the SNR's windows
+THRESHOLD_DB = 0.0
+
+
+def run(config: ml_collections.ConfigDict, workdir: str | None = None, windows: int = 4096, progress: bool = True) -> dict:
+  """-> {command, commit, machine, round0_dir, config, latent: {snr_db, effective_dims, windows},
+  explore: round 1's exploration record (per-episode outcomes in `success`)}."""
+  source = provenance.header()
+  validation.check(config)
+  if windows < 2:
+    raise ValueError(f"need at least 2 windows for a variance; got {windows}")
+  if not config.policy.bypass.enabled:
+    raise ValueError("the policy has no latent: policy.bypass.enabled is off")
+  strategy = config.explore.strategy.name
+  workdir = workdir or os.path.join("runs", "latent", f"{rundir.round0_key(config)}-{strategy}")
+  print(f"workdir {workdir}: {rundir.status(workdir, config)}", flush=True)
+  run_dir = RunDir.create(workdir, config)
+  with runlog.RunLog(workdir) as log:
+    exp = loop.Experiment(config, run_dir, progress, log)
+    try:
+      demos, _, state = loop.round0(exp)
+      buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)])
+
+      def latent():
+        snr = [round(float(x), 3) for x in steering.buffer_snr(exp.agent(state), buf, exp.key(0, _SNR), windows)]
+        dims = list(steering.effective_dims(snr, THRESHOLD_DB))
+        return dict(snr_db=snr, effective_dims=dims, threshold_db=THRESHOLD_DB, windows=int(windows)), None
+
+      latent_rec = exp.phase(0, "latent", latent)[0]
+      save = lambda eps: run_dir.save_kept(1, eps, dict(env_name=exp.env.name, strategy=strategy))
+      explore_rec = exp.phase(1, "explore", lambda: exp.explore(state, 1, buf), save)[0]
+    finally:
+      exp.timer.close()
+  return dict(
+    source,
+    round0_dir=os.path.basename(run_dir.round0),
+    config=rundir.plain(config),
+    latent=latent_rec,
+    explore=explore_rec,
+  )
+
+
+def summary_lines(result: dict) -> list[str]:
+  """The SNR per dimension, the effective dimensions and the exploration's success, as printed."""
+  lat, ex = result["latent"], result["explore"]
+  snr = " ".join(f"{x:+.1f}" for x in lat["snr_db"])
+  return [
+    f"SNR (dB) per latent dimension over {lat['windows']} windows: {snr}",
+    f"effective dimensions (above {lat['threshold_db']:g} dB): {len(lat['effective_dims'])} {lat['effective_dims']}",
+    f"exploration ({ex['strategy']}): {100 * ex['success_rate']:.1f}% of {ex['num_rollouts']} episodes "
+    f"[{100 * ex['wilson_low']:.1f}%, {100 * ex['wilson_high']:.1f}%], Pass@{ex['k']} {100 * ex['pass_at_k']:.1f}%, "
+    f"jerk {ex['jerk']:.1f}",
+  ]
