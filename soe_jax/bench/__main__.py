@@ -43,7 +43,9 @@ flags.DEFINE_integer("eval_states", 50, "converge: start states of each in-fit e
 flags.DEFINE_integer("check_states", 400, "converge: paired start states of the convergence check.")
 flags.DEFINE_float("extra", 0.5, "converge: the continuation's steps, as a fraction of the fit's.")
 flags.DEFINE_integer("windows", 4096, "latent: observation histories of the round-0 data the SNR is taken over.")
-flags.DEFINE_string("workdir", None, "converge / latent: its run directory (default runs/<benchmark>/<round-0 key>...).")
+flags.DEFINE_string(
+  "workdir", None, "converge / latent: its run directory (default runs/<benchmark>/<round-0 key>...)."
+)
 flags.DEFINE_string("out", None, "converge / latent: also write the result record (for results/) here.")
 flags.DEFINE_bool("progress", True, "converge / latent: progress bars.")
 config_flags.DEFINE_config_file(

@@ -28,7 +28,9 @@ _SNR = 6  # key stream of the SNR's windows
 THRESHOLD_DB = 0.0
 
 
-def run(config: ml_collections.ConfigDict, workdir: str | None = None, windows: int = 4096, progress: bool = True) -> dict:
+def run(
+  config: ml_collections.ConfigDict, workdir: str | None = None, windows: int = 4096, progress: bool = True
+) -> dict:
   """-> {command, commit, machine, round0_dir, config, latent: {snr_db, effective_dims, windows},
   explore: round 1's exploration record (per-episode outcomes in `success`)}."""
   source = provenance.header()
