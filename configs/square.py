@@ -21,4 +21,4 @@ from configs import common
 
 
 def get_config(arg=None):
-  return common.apply_presets(common.base_config("square", num_demos=20), arg, cpu_steps=10_000)
+  return common.apply_presets(common.base_config("square", num_demos=20), arg, cpu_steps=20_000)
