@@ -3,18 +3,18 @@
   python -m soe_jax.main --config=configs/can.py:cpu,soe
 
 runs round 0 and one round of SOE exploration, re-fit and evaluation (configs/common.py says what
-each preset does), leaving metrics.jsonl, report.md and plots in runs/can-soe-<time>/. Swap `soe` for
+each preset does), leaving metrics.jsonl, report.md and plots in runs/can-soe-seed0/. Swap `soe` for
 `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
 
-Demonstrations: 20 (robomimic's core_20 as SIME uses it) by default. Under the `cpu` preset, 100
-demonstrations and a 10k-step round-0 fit (about 20 minutes here, once; rounds keep the preset's
-3k-step re-fit): base success 63% of 100 evaluation episodes [53.2%, 71.8%] (seed 0), measured before the policy's inputs were cleaned. With the
-preset's 5k steps it was 6% [2.8%, 12.5%] from 100 demonstrations and 2% from 20: the policy reached
-the can but missed the grasp (BENCHMARKS.md).
+Demonstrations: 20, robomimic's core_20 as SIME uses it. Under the `cpu` preset a 20k-step round-0
+fit (771 s of fit here; rounds keep the preset's 3k-step re-fit) converges: 49.5% of 400 evaluation
+start states [44.6%, 54.4%] (seed 0), and 10k more steps on the same data change that by -1.2
+points [-5.6, +3.1] (BENCHMARKS.md, "Convergence of round 0";
+results/convergence/10_can_cpu_20demos_20k.json).
 """
 
 from configs import common
 
 
 def get_config(arg=None):
-  return common.apply_presets(common.base_config("can", num_demos=20), arg, cpu_demos=100, cpu_steps=10_000)
+  return common.apply_presets(common.base_config("can", num_demos=20), arg, cpu_steps=20_000)

@@ -9,9 +9,10 @@ beside it.
 Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
 `configs/square.py:head=flow_unet,smoke`:
 - `smoke`: tiny networks, two short rounds, seconds once compiled (for tests);
-- `cpu`: the small UNet 64/128/256, 5k + 3k steps at batch 64 (fits of about 11 + 6 minutes here),
-  one round, and the task's own number of demonstrations and round-0 steps where it needs others
-  (its config says which and the base success measured with them);
+- `cpu`: the recipe that converged fastest on a 2-core CPU: the narrow UNet 32/64/128 at AdamW 1e-3
+  and batch 64, 10k round-0 steps, one round whose re-fit continues for 3k steps at 3e-4 with the EMA
+  carried on; each task's own number of demonstrations and round-0 steps where it needs others (its
+  config says which, and the converged base success measured with them);
 - none: paper scale (Diffusion Policy's low-dim UNet, 25k steps of AdamW 3e-4 at batch 256, DDIM-10,
   3 rounds), for accelerators (there with `--config.env.backend=mujoco`: MJX compiles and steps
   these contact-rich scenes slowly even on an H100; BENCHMARKS.md);
@@ -125,8 +126,8 @@ def apply_presets(
   c: ml_collections.ConfigDict, arg: str | None, cpu_demos: int | None = None, cpu_steps: int = 10_000
 ) -> ml_collections.ConfigDict:
   """`cpu_demos`, `cpu_steps`: the task's number of demonstrations and round-0 fit steps under the `cpu`
-  preset (a task may need more than the paper's few demonstrations, or a longer fit, for its small UNet
-  to reach the 20-80% base success the experiment wants)."""
+  preset: a task may need another number of demonstrations than the paper's for its converged base
+  policy to succeed on the 20-80% of start states the experiment wants, or a longer fit to converge."""
   presets = parse_arg(arg)
   methods = [m for m in METHODS if presets.get(m)]
   if len(methods) > 1:

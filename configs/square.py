@@ -3,14 +3,13 @@
   python -m soe_jax.main --config=configs/square.py:cpu,soe
 
 runs round 0 and one round of SOE exploration, re-fit and evaluation (configs/common.py says what
-each preset does), leaving metrics.jsonl, report.md and plots in runs/square-soe-<time>/. Swap `soe` for
+each preset does), leaving metrics.jsonl, report.md and plots in runs/square-soe-seed0/. Swap `soe` for
 `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
 
-Demonstrations: 20, robomimic's core_20 as SIME uses it. Under the `cpu` preset, a 10k-step round-0
-fit (about 20 minutes here, once; rounds keep the preset's 3k-step re-fit): base success 58% of 100
-evaluation episodes [48.2%, 67.2%] (seed 0), measured before the policy's inputs were cleaned. With the preset's 5k steps it was 10% [5.5%, 17.4%] from
-20 demonstrations and 7% [3.4%, 13.7%] from 50: the policy was not precise enough to seat the nut
-(BENCHMARKS.md).
+Demonstrations: 20, robomimic's core_20 as SIME uses it. Under the `cpu` preset a 20k-step round-0
+fit (rounds keep the preset's 3k-step re-fit) converges: 65.8% of 400 evaluation start states
+[61.0%, 70.2%] (seed 0), and 10k more steps on the same data change that by +0.5 points [-3.5, +4.5]
+(BENCHMARKS.md, "Convergence of round 0"; results/convergence/08_square_recipe_20k.json).
 
 Benchmarks:
   python -m soe_jax.bench fit --config=configs/square.py:cpu --bypass=on

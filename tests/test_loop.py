@@ -194,11 +194,11 @@ def test_method_presets_choose_the_strategy():
 
 
 def test_the_cpu_preset_takes_the_tasks_own_demonstrations_and_steps():
-  assert lift_config.get_config("cpu").data.num_demos == lift_config.get_config("").data.num_demos == 10
-  assert (can_config.get_config("").data.num_demos, can_config.get_config("cpu").data.num_demos) == (20, 100)
-  steps = [config.get_config("cpu").fit.num_steps for config in (lift_config, can_config, square_config)]
-  assert steps == [5000, 10_000, 10_000]
-  assert square_config.get_config("cpu").data.num_demos == 20
+  lift, can, square = (config.get_config("cpu") for config in (lift_config, can_config, square_config))
+  assert (lift.data.num_demos, lift_config.get_config("").data.num_demos) == (3, 10)
+  assert can.data.num_demos == square.data.num_demos == can_config.get_config("").data.num_demos == 20
+  assert [c.fit.num_steps for c in (lift, can, square)] == [12_500, 20_000, 20_000]
+  assert lift.policy.head.kwargs.down_dims == (32, 64, 128) and lift.fit.lr == 1e-3 and lift.rounds.refit_lr == 3e-4
   assert can_config.get_config("cpu,smoke").data.num_demos == 4  # smoke stays tiny
 
 

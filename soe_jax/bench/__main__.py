@@ -75,24 +75,24 @@ def main(argv):
 
     result = policy.fit(FLAGS.config, FLAGS.bypass == "on", FLAGS.ema == "on", FLAGS.steps or 10, FLAGS.repeats or 2)
   elif what == "converge":
-    from soe_jax.bench import converge
+    from soe_jax.bench import converge, experiment
 
     result = converge.run(FLAGS.config, FLAGS.workdir, FLAGS.eval_every, FLAGS.eval_states, FLAGS.check_states,
                           FLAGS.extra, FLAGS.progress)  # fmt: skip
     print("\n".join(converge.curve_lines(result)))
     if FLAGS.out:
-      converge.write_record(result, FLAGS.out)
+      experiment.write_record(result, FLAGS.out)
     result = dict(
       converged=result["check"]["converged"],
       **{k: result["check"][k] for k in ("difference", "low", "high", "p_value")},
     )
   elif what == "latent":
-    from soe_jax.bench import converge, latent
+    from soe_jax.bench import experiment, latent
 
     result = latent.run(FLAGS.config, FLAGS.workdir, FLAGS.windows, FLAGS.progress)
     print("\n".join(latent.summary_lines(result)))
     if FLAGS.out:
-      converge.write_record(result, FLAGS.out)
+      experiment.write_record(result, FLAGS.out)
     result = dict(effective_dims=result["latent"]["effective_dims"], explore_success=result["explore"]["success_rate"])
   elif what == "rollout":
     from soe_jax.bench import rollout

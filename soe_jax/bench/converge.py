@@ -23,10 +23,10 @@ import os
 
 import ml_collections
 
-from soe_jax import loop, metrics, provenance, rundir, runlog, validation
+from soe_jax import loop, metrics, provenance, rundir, validation
+from soe_jax.bench import experiment
 from soe_jax.data.episodes import EpisodeSet
 from soe_jax.errors import UserError
-from soe_jax.rundir import RunDir
 
 _CHECK = 5  # key stream of the paired check
 
@@ -55,40 +55,26 @@ def run(
     raise UserError(f"need eval_every >= 1, check_states >= 1, extra > 0; got {eval_every}, {check_states}, {extra}")
   validation.check(config)
   workdir = workdir or os.path.join("runs", "converge", rundir.round0_key(config))
-  print(f"workdir {workdir}: {rundir.status(workdir, config)}", flush=True)
-  run_dir = RunDir.create(workdir, config)
-  with runlog.RunLog(workdir) as log:
-    exp = loop.Experiment(config, run_dir, progress, log)
-    try:
-      demos, norm, state = loop.round0(exp)
-      fit0 = rundir.read_json(run_dir.phase_path(0, "fit"))
-      if "eval_curve" not in fit0:
-        raise UserError(
-          f"the round 0 in {run_dir.round0} was fitted without in-fit evaluations; give this benchmark a "
-          "round 0 of its own with --config.rounds.round0_dir=DIR"
-        )
-      steps = max(1, round(extra * int(config.fit.num_steps)))
-      more = exp.fit_phase(1, [EpisodeSet(demos, 0)], norm, state, steps)
-      fit1 = rundir.read_json(run_dir.phase_path(1, "fit"))
+  with experiment.opened(config, workdir, progress) as exp:
+    demos, norm, state = loop.round0(exp)
+    fit0 = rundir.read_json(exp.run.phase_path(0, "fit"))
+    if "eval_curve" not in fit0:
+      raise UserError(
+        f"the round 0 in {exp.run.round0} was fitted without in-fit evaluations; give this benchmark a "
+        "round 0 of its own with --config.rounds.round0_dir=DIR"
+      )
+    steps = max(1, round(extra * int(config.fit.num_steps)))
+    more = exp.fit_phase(1, [EpisodeSet(demos, 0)], norm, state, steps)
+    fit1 = rundir.read_json(exp.run.phase_path(1, "fit"))
 
-      def check():
-        key = exp.key(0, _CHECK)
-        before = exp.evaluate(state, 0, check_states, key)
-        after = exp.evaluate(more, 1, check_states, key)
-        rates = [p["success_rate"] for p in fit0["eval_curve"]]
-        return dict(before=before, after=after, **metrics.convergence(before["success"], after["success"], rates)), None
+    def check():
+      key = exp.key(0, _CHECK)
+      before = exp.evaluate(state, 0, check_states, key)
+      after = exp.evaluate(more, 1, check_states, key)
+      rates = [p["success_rate"] for p in fit0["eval_curve"]]
+      return dict(before=before, after=after, **metrics.convergence(before["success"], after["success"], rates)), None
 
-      record = exp.phase(1, "check", check)[0]
-    finally:
-      exp.timer.close()
-  return dict(
-    source,
-    round0_dir=os.path.basename(run_dir.round0),
-    config=rundir.plain(config),
-    fit=fit0,
-    continued=fit1,
-    check=record,
-  )
+    return experiment.record(source, exp, fit=fit0, continued=fit1, check=exp.phase(1, "check", check)[0])
 
 
 def curve_lines(result: dict) -> list[str]:
@@ -112,9 +98,3 @@ def curve_lines(result: dict) -> list[str]:
     + ("converged" if check["converged"] else "NOT converged")
   )
   return lines
-
-
-def write_record(result: dict, path: str) -> None:
-  """The committed record (provenance first)."""
-  os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-  rundir.write_json(path, result)

@@ -19,10 +19,10 @@ import os
 
 import ml_collections
 
-from soe_jax import loop, provenance, rundir, runlog, validation
+from soe_jax import loop, provenance, rundir, validation
+from soe_jax.bench import experiment
 from soe_jax.data.episodes import EpisodeSet, build_buffer
 from soe_jax.explore import steering
-from soe_jax.rundir import RunDir
 
 _SNR = 6  # key stream of the SNR's windows
 THRESHOLD_DB = 0.0
@@ -41,31 +41,22 @@ def run(
     raise ValueError("the policy has no latent: policy.bypass.enabled is off")
   strategy = config.explore.strategy.name
   workdir = workdir or os.path.join("runs", "latent", f"{rundir.round0_key(config)}-{strategy}")
-  print(f"workdir {workdir}: {rundir.status(workdir, config)}", flush=True)
-  run_dir = RunDir.create(workdir, config)
-  with runlog.RunLog(workdir) as log:
-    exp = loop.Experiment(config, run_dir, progress, log)
-    try:
-      demos, _, state = loop.round0(exp)
-      buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)])
+  with experiment.opened(config, workdir, progress) as exp:
+    demos, _, state = loop.round0(exp)
+    buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)])
 
-      def latent():
-        snr = [round(float(x), 3) for x in steering.buffer_snr(exp.agent(state), buf, exp.key(0, _SNR), windows)]
-        dims = list(steering.effective_dims(snr, THRESHOLD_DB))
-        return dict(snr_db=snr, effective_dims=dims, threshold_db=THRESHOLD_DB, windows=int(windows)), None
+    def latent():
+      snr = [round(float(x), 3) for x in steering.buffer_snr(exp.agent(state), buf, exp.key(0, _SNR), windows)]
+      dims = list(steering.effective_dims(snr, THRESHOLD_DB))
+      return dict(snr_db=snr, effective_dims=dims, threshold_db=THRESHOLD_DB, windows=int(windows)), None
 
-      latent_rec = exp.phase(0, "latent", latent)[0]
-      save = lambda eps: run_dir.save_kept(1, eps, dict(env_name=exp.env.name, strategy=strategy))
-      explore_rec = exp.phase(1, "explore", lambda: exp.explore(state, 1, buf), save)[0]
-    finally:
-      exp.timer.close()
-  return dict(
-    source,
-    round0_dir=os.path.basename(run_dir.round0),
-    config=rundir.plain(config),
-    latent=latent_rec,
-    explore=explore_rec,
-  )
+    save = lambda eps: exp.run.save_kept(1, eps, dict(env_name=exp.env.name, strategy=strategy))
+    return experiment.record(
+      source,
+      exp,
+      latent=exp.phase(0, "latent", latent)[0],
+      explore=exp.phase(1, "explore", lambda: exp.explore(state, 1, buf), save)[0],
+    )
 
 
 def summary_lines(result: dict) -> list[str]:
