@@ -7,9 +7,10 @@ each preset does), leaving metrics.jsonl, report.md and plots in runs/square-soe
 `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
 
 Demonstrations: 20, robomimic's core_20 as SIME uses it. Under the `cpu` preset a 20k-step round-0
-fit (rounds keep the preset's 3k-step re-fit) converges: 65.8% of 400 evaluation start states
-[61.0%, 70.2%] (seed 0), and 10k more steps on the same data change that by +0.5 points [-3.5, +4.5]
-(BENCHMARKS.md, "Convergence of round 0"; results/convergence/08_square_recipe_20k.json).
+fit (734 s of fit here; rounds keep the preset's 3k-step re-fit) converges: 65.8% of 400 evaluation
+start states [61.0%, 70.2%] (seed 0), and 10k more steps on the same data change that by +0.5
+points [-3.5, +4.5] (BENCHMARKS.md, "Convergence of round 0";
+results/convergence/08_square_recipe_20k.json).
 
 Benchmarks:
   python -m soe_jax.bench fit --config=configs/square.py:cpu --bypass=on

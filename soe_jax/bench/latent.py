@@ -22,6 +22,7 @@ import ml_collections
 from soe_jax import loop, provenance, rundir, validation
 from soe_jax.bench import experiment
 from soe_jax.data.episodes import EpisodeSet, build_buffer
+from soe_jax.errors import UserError
 from soe_jax.explore import steering
 
 _SNR = 6  # key stream of the SNR's windows
@@ -36,9 +37,9 @@ def run(
   source = provenance.header()
   validation.check(config)
   if windows < 2:
-    raise ValueError(f"need at least 2 windows for a variance; got {windows}")
+    raise UserError(f"need at least 2 windows for a variance; got {windows}")
   if not config.policy.bypass.enabled:
-    raise ValueError("the policy has no latent: policy.bypass.enabled is off")
+    raise UserError("the policy has no latent: policy.bypass.enabled is off")
   strategy = config.explore.strategy.name
   workdir = workdir or os.path.join("runs", "latent", f"{rundir.round0_key(config)}-{strategy}")
   with experiment.opened(config, workdir, progress) as exp:
