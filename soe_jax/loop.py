@@ -17,6 +17,7 @@ uninterrupted run's.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import os
@@ -203,6 +204,12 @@ class Experiment:
     load = lambda _: checkpoint.load(self.run.ckpt_dir(r)).state
     return self.phase(r, "fit", work, save, load)[1]
 
+  def explore_phase(self, r: int, state, buf) -> tuple[dict, list[dict]]:
+    """Round r's exploration (prepared on `buf`) -> its record and the episodes it kept, saved with it."""
+    meta = dict(env_name=self.env.name, strategy=self.config.explore.strategy.name)
+    save = lambda kept: self.run.save_kept(r, kept, meta)
+    return self.phase(r, "explore", lambda: self.explore(state, r, buf), save, self.run.kept)
+
   def evaluate_phase(self, r: int, state) -> dict:
     return self.phase(r, "evaluate", lambda: (self.evaluate(state, r), None))[0]
 
@@ -250,30 +257,35 @@ def round0(exp: Experiment) -> tuple:
   return demos, norm, state
 
 
+@contextlib.contextmanager
+def opened(config: ml_collections.ConfigDict, workdir: str, progress: bool = True):
+  """The `Experiment` of a checked config in `workdir`, created or resumed; the first line printed
+  says whether it starts, resumes or has finished. (`run`, and the benchmarks that run phases.)"""
+  print(f"workdir {workdir}: {rundir.status(workdir, config)}", flush=True)
+  run_dir = RunDir.create(workdir, config)
+  with runlog.RunLog(workdir) as log:
+    exp = Experiment(config, run_dir, progress, log)
+    try:
+      yield exp
+    finally:
+      exp.timer.close()
+
+
 def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) -> dict:
   """Run (or resume) the experiment in `workdir`; returns the report's numbers. A config with a problem
   is refused (`UserError`) before anything is written; the first line printed says whether the run
   starts, resumes or has finished."""
   validation.check(config)
-  print(f"workdir {workdir}: {rundir.status(workdir, config)}", flush=True)
-  run_dir = RunDir.create(workdir, config)
-  with runlog.RunLog(workdir) as log:
-    exp = Experiment(config, run_dir, progress, log)
+  with opened(config, workdir, progress) as exp:
     clock = runlog.RoundClock(int(config.rounds.num_rounds))
-    try:
-      clock.begin(0)
-      demos, norm, state = round0(exp)
-      selected = []  # the episodes of the rounds done, one set per round
-      for r in range(1, int(config.rounds.num_rounds) + 1):
-        clock.begin(r)
-        buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)] + selected)
-        strategy = config.explore.strategy.name
-        save = lambda eps: run_dir.save_kept(r, eps, dict(env_name=exp.env.name, strategy=strategy))
-        _, kept = exp.phase(r, "explore", lambda: exp.explore(state, r, buf), save, run_dir.kept)
-        selected.append(EpisodeSet(kept, r))
-        sets = [EpisodeSet(demos, 0)] + selected + run_dir.steered_sets(r, config.rounds.steered == "successful")
-        state = exp.fit_phase(r, sets, norm, state if config.rounds.refit == "continue" else None)
-        exp.evaluate_phase(r, state)
-    finally:
-      exp.timer.close()
+    clock.begin(0)
+    demos, norm, state = round0(exp)
+    selected = []  # the episodes of the rounds done, one set per round
+    for r in range(1, int(config.rounds.num_rounds) + 1):
+      clock.begin(r)
+      buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)] + selected)
+      selected.append(EpisodeSet(exp.explore_phase(r, state, buf)[1], r))
+      sets = [EpisodeSet(demos, 0)] + selected + exp.run.steered_sets(r, config.rounds.steered == "successful")
+      state = exp.fit_phase(r, sets, norm, state if config.rounds.refit == "continue" else None)
+      exp.evaluate_phase(r, state)
   return report.write(workdir)

@@ -55,7 +55,7 @@ def run(
     raise UserError(f"need eval_every >= 1, check_states >= 1, extra > 0; got {eval_every}, {check_states}, {extra}")
   validation.check(config)
   workdir = workdir or os.path.join("runs", "converge", rundir.round0_key(config))
-  with experiment.opened(config, workdir, progress) as exp:
+  with loop.opened(config, workdir, progress) as exp:
     demos, norm, state = loop.round0(exp)
     fit0 = rundir.read_json(exp.run.phase_path(0, "fit"))
     if "eval_curve" not in fit0:

@@ -1,27 +1,10 @@
-"""What the benchmarks that run the experiment share: their run directory, opened as `main` opens
-one, and the record they write for `results/`."""
+"""The record a benchmark that runs the experiment's phases writes for `results/`."""
 
 from __future__ import annotations
 
-import contextlib
 import os
 
-from soe_jax import loop, rundir, runlog
-from soe_jax.rundir import RunDir
-
-
-@contextlib.contextmanager
-def opened(config, workdir: str, progress: bool):
-  """The `loop.Experiment` of a (checked) config in `workdir`, created or resumed, its first line
-  printed as `main` prints it."""
-  print(f"workdir {workdir}: {rundir.status(workdir, config)}", flush=True)
-  run_dir = RunDir.create(workdir, config)
-  with runlog.RunLog(workdir) as log:
-    exp = loop.Experiment(config, run_dir, progress, log)
-    try:
-      yield exp
-    finally:
-      exp.timer.close()
+from soe_jax import loop, rundir
 
 
 def record(source: dict, exp: loop.Experiment, **parts) -> dict:

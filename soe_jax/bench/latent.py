@@ -40,9 +40,8 @@ def run(
     raise UserError(f"need at least 2 windows for a variance; got {windows}")
   if not config.policy.bypass.enabled:
     raise UserError("the policy has no latent: policy.bypass.enabled is off")
-  strategy = config.explore.strategy.name
-  workdir = workdir or os.path.join("runs", "latent", f"{rundir.round0_key(config)}-{strategy}")
-  with experiment.opened(config, workdir, progress) as exp:
+  workdir = workdir or os.path.join("runs", "latent", f"{rundir.round0_key(config)}-{config.explore.strategy.name}")
+  with loop.opened(config, workdir, progress) as exp:
     demos, _, state = loop.round0(exp)
     buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)])
 
@@ -51,13 +50,8 @@ def run(
       dims = list(steering.effective_dims(snr, THRESHOLD_DB))
       return dict(snr_db=snr, effective_dims=dims, threshold_db=THRESHOLD_DB, windows=int(windows)), None
 
-    save = lambda eps: exp.run.save_kept(1, eps, dict(env_name=exp.env.name, strategy=strategy))
-    return experiment.record(
-      source,
-      exp,
-      latent=exp.phase(0, "latent", latent)[0],
-      explore=exp.phase(1, "explore", lambda: exp.explore(state, 1, buf), save)[0],
-    )
+    latent_rec = exp.phase(0, "latent", latent)[0]
+    return experiment.record(source, exp, latent=latent_rec, explore=exp.explore_phase(1, state, buf)[0])
 
 
 def summary_lines(result: dict) -> list[str]:
