@@ -17,7 +17,12 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
   3 rounds), for accelerators (there with `--config.env.backend=mujoco`: MJX compiles and steps
   these contact-rich scenes slowly even on an H100; BENCHMARKS.md);
 - the method: `dp`, `sime`, `soe` or `soe_steer` (`method`, and `explore.strategy`: the strategy of
-  that name with its settings); and `head=NAME` (diffusion_unet, flow_unet, mlp).
+  that name with its settings), or `control` (each round re-fits on the previous round's data alone,
+  with the same budget: no exploration, no new episodes);
+- `expert_data`, beside a method: an oracle arm that explores as the method does and then trains on
+  the scripted demonstrator's episodes from the start states the method kept (`method` becomes
+  `<method>-expert_data`, `rounds.new_data` `expert`);
+- `head=NAME` (diffusion_unet, flow_unet, mlp).
 Single fields are overridden on the command line with `--config.fit.lr=3e-4`.
 """
 
@@ -27,9 +32,11 @@ import ml_collections
 
 from soe_jax.explore import registry as strategy_registry
 
-# A method is an arm of the experiment; each of these explores with the strategy of the same name.
-METHODS = ("dp", "sime", "soe", "soe_steer")
-PRESETS = ("smoke", "cpu", "head") + METHODS
+# A method is an arm of the experiment; each explorer explores with the strategy of the same name, and
+# the control re-fits without new data.
+EXPLORERS = ("dp", "sime", "soe", "soe_steer")
+METHODS = EXPLORERS + ("control",)
+PRESETS = ("smoke", "cpu", "head", "expert_data") + METHODS
 
 
 def parse_arg(arg: str | None) -> dict:
@@ -103,16 +110,21 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   # Exploration: `tries` rollouts from each of `num_start_states` start states per round, with a
   # strategy by name and its settings (`soe_jax/explore/`; the defaults are the strategy's own).
   c.explore = ml_collections.ConfigDict(dict(strategy=strategy_config("soe"), num_start_states=100, tries=5))
-  c.eval = ml_collections.ConfigDict(dict(num_start_states=100, seed=77_777))
+  # Evaluation: the base path from `num_start_states` start states split from `seed`, with the same
+  # policy-sampling keys in every round and for every method of a training seed (paired outcomes).
+  c.eval = ml_collections.ConfigDict(dict(num_start_states=200, seed=77_777))
   # Rounds after round 0: select episodes (first_success | all_successes | sime), append, re-fit
   # (continue from the previous round's parameters for refit_steps at a peak lr of refit_lr, 0 meaning
   # fit.lr; or scratch), evaluate.
   # refit_ema: a continued re-fit's EMA restarts from the parameters (restart) or goes on (carry).
   # steered: which episodes saved from the steering page the next fit takes (successful | all).
+  # new_data: what a round adds to the data: the episodes exploration kept (kept), the scripted
+  # demonstrator's episodes from the start states of those (expert: an oracle), or nothing (none: the
+  # control, which explores not at all).
   # round0_dir: where the shared round 0 lives ("" = <workdir>/../round0).
   c.rounds = ml_collections.ConfigDict(
     dict(num_rounds=3, select="first_success", refit="continue", refit_steps=10_000, refit_lr=0.0,
-         refit_ema="restart", steered="successful", round0_dir="")
+         refit_ema="restart", steered="successful", new_data="kept", round0_dir="")
   )  # fmt: skip
   return c
 
@@ -134,7 +146,14 @@ def apply_presets(
     raise ValueError(f"choose one method preset, got {', '.join(methods)}")
   if methods:
     c.method = methods[0]
-    c.explore.strategy = strategy_config(methods[0])
+    c.explore.strategy = strategy_config("dp" if methods[0] == "control" else methods[0])
+  if methods == ["control"]:
+    c.rounds.new_data = "none"  # (its explore.strategy is never used)
+  if presets.get("expert_data"):
+    if c.method not in EXPLORERS:
+      raise ValueError(f"expert_data goes with an exploring method ({', '.join(EXPLORERS)}), e.g. 'soe,expert_data'")
+    c.method = f"{c.method}-expert_data"
+    c.rounds.new_data = "expert"
   steer = c.explore.strategy.kwargs if c.explore.strategy.name == "soe_steer" else None
   head_kwargs = c.policy.head.kwargs
   if presets.get("cpu"):

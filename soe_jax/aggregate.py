@@ -1,9 +1,16 @@
-"""Compare finished runs: one table over tasks x methods, mean ± std over seeds.
+"""Compare finished runs: one table over tasks x methods, mean ± std over training seeds, each method
+paired with its round 0 and with the control.
 
   python -m soe_jax.aggregate RUNS_DIR [--out=RUNS_DIR/comparison]
 
-Finds every run directory under RUNS_DIR (a `metrics.jsonl` beside a `config.json`) and writes
-`<out>.md` and `<out>.csv`; success rates carry the pooled episode count and 95% Wilson interval.
+Finds every run directory under RUNS_DIR (a `metrics.jsonl` beside a `config.json`, with the
+`outcomes.json` its report wrote) and writes `<out>.md` and `<out>.csv`. Success rates carry the
+pooled episode count and 95% Wilson interval. Every run of a training seed is evaluated on the same
+start states with the same sampling keys, so each method's last round is compared state by state
+with its round 0 and with the control of the same seed and settings (`method` control: the same
+re-fits without new data): states gained and lost over all seeds, the difference per seed as mean ±
+standard deviation over seeds, and the Cochran-Mantel-Haenszel test over the (seed, state) pairs
+(one seed: McNemar's exact test).
 """
 
 from __future__ import annotations
@@ -21,6 +28,11 @@ from soe_jax import cli, metrics, report, runlog
 flags.DEFINE_string("out", None, "Output path without extension (default RUNS_DIR/comparison).")
 FLAGS = flags.FLAGS
 
+CONTROL = "control"
+# What a method's run and its control may differ in: the arm itself.
+_ARM = ("method", "explore.", "rounds.new_data")
+_NOT_SETTINGS = ("seed", "rounds.round0_dir")
+
 
 def find_runs(root: str) -> list[str]:
   """Run directories (with a metrics.jsonl) under `root`, sorted."""
@@ -31,20 +43,21 @@ def find_runs(root: str) -> list[str]:
   return sorted(found)
 
 
-def _mean_std(xs) -> str:
+def _mean_std(xs, fmt: str = ".3g") -> str:
+  """Mean ± sample standard deviation over seeds (the value alone for one seed; '-' for none)."""
   xs = [x for x in xs if x is not None]
   if not xs:
     return "-"
-  return f"{np.mean(xs):.3g} ± {np.std(xs):.2g}" if len(xs) > 1 else f"{xs[0]:.3g}"
-
-
-_NOT_SETTINGS = ("seed", "rounds.round0_dir")
+  return f"{np.mean(xs):{fmt}} ± {np.std(xs, ddof=1):.2g}" if len(xs) > 1 else f"{xs[0]:{fmt}}"
 
 
 def _settings(workdir: str) -> dict:
   """The run's saved config, flattened, without what seeds and places it."""
+  from soe_jax import rundir  # (imports MuJoCo: after the command's quiet start)
+
   with open(os.path.join(workdir, "config.json")) as f:
-    return {k: v for k, v in runlog.flatten(json.load(f)).items() if k not in _NOT_SETTINGS}
+    saved = rundir.with_added(json.load(f))  # older runs lack added fields
+  return {k: v for k, v in runlog.flatten(saved).items() if k not in _NOT_SETTINGS}
 
 
 def _variants(settings: list[dict]) -> list[str]:
@@ -53,75 +66,136 @@ def _variants(settings: list[dict]) -> list[str]:
   return [", ".join(f"{k}={s.get(k)}" for k in keys) for s in settings]
 
 
-def aggregate(workdirs: list[str]) -> tuple[str, str]:
-  """(markdown, csv): one row per task, method and variant (runs whose configs differ in more than the
-  seed get a row each, named by the fields that differ), mean ± std over seeds; success rates also with
-  the 95% Wilson interval of all their episodes pooled, and the episode count; the wall time of a
-  round (explore, re-fit, evaluate) in seconds. Of two runs with the same config and seed, the first
-  counts."""
-  by_method: dict[tuple, list[tuple[dict, dict]]] = {}
+def _control_key(task: str, seed, settings: dict) -> str:
+  """What a run shares with its control: task, seed and every setting but the arm's."""
+  same = {k: v for k, v in settings.items() if not k.startswith(_ARM)}
+  return json.dumps([task, seed, same], sort_keys=True)
+
+
+def _outcomes(workdir: str) -> dict:
+  path = os.path.join(workdir, report.OUTCOMES_FILE)
+  if not os.path.exists(path):
+    return {"evaluate": {}, "explore": {}}
+  with open(path) as f:
+    return json.load(f)
+
+
+def _comparison(pairs: list[tuple]) -> dict | None:
+  """`metrics.pooled_comparison` of [(reference, method)] per seed (None if there are none)."""
+  pairs = [(a, b) for a, b in pairs if a is not None and b is not None]
+  if not pairs:
+    return None
+  if any(len(a) != len(b) for a, b in pairs):
+    raise ValueError("paired runs were evaluated on different numbers of start states")
+  return dict(metrics.pooled_comparison(pairs), seeds=len(pairs))
+
+
+def _paired(c: dict | None) -> str:
+  """'+3.5 ± 2.1 pts, 30 / 16, p=0.04' (mean ± std over seeds; gained / lost; the pooled p-value)."""
+  if c is None:
+    return "-"
+  spread = f" ± {100 * c['difference_std']:.1f}" if c["seeds"] > 1 else ""
+  return f"{100 * c['difference_mean']:+.1f}{spread} pts, {c['gained']} / {c['lost']}, p={c['p_value']:.3g}"
+
+
+HEADER = [
+  "task",
+  "method",
+  "variant",
+  "seeds",
+  "pass_at_k",
+  "jerk",
+  "rollouts",
+  "sr_before",
+  "sr_after",
+  "sr_after_episodes",
+  "sr_after_wilson",
+  "improvement_abs",
+  "improvement_rel",
+  "vs_round0",
+  "vs_round0_p",
+  "vs_control",
+  "vs_control_p",
+  "round_wall_s",
+]
+
+
+def rows(workdirs: list[str]) -> list[dict]:
+  """One row per task, method and variant (runs whose configs differ in more than the seed and
+  placement get a row each, named by the fields that differ), numbers as mean ± std over seeds; of two
+  runs with the same config and seed, the first counts."""
+  runs = []
   for w in workdirs:
     s = report.summarize(w)
-    by_method.setdefault((s["task"], s["method"]), []).append((s, _settings(w)))
+    s["settings"], s["outcomes"] = _settings(w), _outcomes(w)
+    s["last"] = str(s["rounds"][-1]) if s["rounds"] else None
+    runs.append(s)
+  controls = {}
+  for s in runs:
+    if s["method"] == CONTROL:
+      controls.setdefault(_control_key(s["task"], s["seed"], s["settings"]), s)
+  by_method: dict[tuple, list[dict]] = {}
+  for s in runs:
+    by_method.setdefault((s["task"], s["method"]), []).append(s)
   groups: dict[tuple, list[dict]] = {}
   for (task, method), found in by_method.items():
-    for (s, _), v in zip(found, _variants([settings for _, settings in found])):
-      runs = groups.setdefault((task, method, v), [])
-      if s["seed"] in [r["seed"] for r in runs]:
-        logging.warning(
-          "%s repeats seed %s of %s with the same config; left out of the table",
-          s["workdir"],
-          s["seed"],
-          runs[0]["workdir"],
-        )
+    for s, v in zip(found, _variants([r["settings"] for r in found])):
+      group = groups.setdefault((task, method, v), [])
+      if s["seed"] in [r["seed"] for r in group]:
+        logging.warning("%s repeats seed %s of %s with the same config; left out of the table",
+                        s["workdir"], s["seed"], group[0]["workdir"])  # fmt: skip
         continue
-      runs.append(s)
-  header = [
-    "task",
-    "method",
-    "variant",
-    "seeds",
-    "pass_at_k",
-    "jerk",
-    "rollouts",
-    "sr_before",
-    "sr_after",
-    "sr_after_episodes",
-    "sr_after_wilson",
-    "improvement_abs",
-    "improvement_rel",
-    "round_wall_s",
-  ]
-  rows = []
-  for (task, method, v), runs in sorted(groups.items()):
-    after = [r for r in runs if "sr_after" in r]
+      group.append(s)
+  out = []
+  for (task, method, v), group in sorted(groups.items(), key=lambda g: (g[0][0], g[0][1] == CONTROL, g[0][1:])):
+    after = [r for r in group if "sr_after" in r]
     n = sum(r["sr_episodes"] for r in after)
-    successes = sum(int(round(r["sr_after"] * r["sr_episodes"])) for r in after)
-    lo, hi = metrics.wilson_interval(successes, n)
-    rows.append(
+    lo, hi = metrics.wilson_interval(sum(int(round(r["sr_after"] * r["sr_episodes"])) for r in after), n)
+    evaluated = lambda r, rnd: r["outcomes"]["evaluate"].get(rnd) if rnd is not None else None
+    vs_round0 = _comparison([(evaluated(r, "0"), evaluated(r, r["last"])) for r in after if r["last"] != "0"])
+    vs_control = None
+    if method != CONTROL:
+      pairs = []
+      for r in after:
+        control = controls.get(_control_key(task, r["seed"], r["settings"]))
+        if control is not None:
+          pairs.append((evaluated(control, r["last"]), evaluated(r, r["last"])))
+      vs_control = _comparison(pairs)
+    out.append(
       dict(
         task=task,
         method=method,
         variant=v,
-        seeds=len(runs),
-        pass_at_k=_mean_std([r.get("pass_at_k") for r in runs]),
-        jerk=_mean_std([r.get("jerk") for r in runs]),
-        rollouts=_mean_std([r.get("rollouts") for r in runs]),
-        sr_before=_mean_std([r.get("sr_before") for r in runs]),
-        sr_after=_mean_std([r.get("sr_after") for r in runs]),
+        seeds=len(group),
+        pass_at_k=_mean_std([r.get("pass_at_k") for r in group]),
+        jerk=_mean_std([r.get("jerk") for r in group]),
+        rollouts=_mean_std([r.get("rollouts") for r in group]),
+        sr_before=_mean_std([r.get("sr_before") for r in group]),
+        sr_after=_mean_std([r.get("sr_after") for r in group]),
         sr_after_episodes=n,
         sr_after_wilson=f"[{lo:.3f}, {hi:.3f}]",
-        improvement_abs=_mean_std([r.get("improvement_abs") for r in runs]),
-        improvement_rel=_mean_std([r.get("improvement_rel") for r in runs]),
-        round_wall_s=_mean_std([r.get("round_wall_s") for r in runs]),
+        improvement_abs=_mean_std([r.get("improvement_abs") for r in group]),
+        improvement_rel=_mean_std([r.get("improvement_rel") for r in group]),
+        vs_round0=_paired(vs_round0),
+        vs_round0_p=None if vs_round0 is None else vs_round0["p_value"],
+        vs_control=_paired(vs_control),
+        vs_control_p=None if vs_control is None else vs_control["p_value"],
+        round_wall_s=_mean_std([r.get("round_wall_s") for r in group]),
+        comparisons=dict(round0=vs_round0, control=vs_control),
       )
     )
-  md = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-  md += ["| " + " | ".join(str(r[h]) for h in header) + " |" for r in rows]
+  return out
+
+
+def aggregate(workdirs: list[str]) -> tuple[str, str]:
+  """(markdown, csv) of `rows(workdirs)`."""
+  table = rows(workdirs)
+  md = ["| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
+  md += ["| " + " | ".join("-" if r[h] is None else str(r[h]) for h in HEADER) + " |" for r in table]
   buf = io.StringIO()
-  w = csv.DictWriter(buf, fieldnames=header)
+  w = csv.DictWriter(buf, fieldnames=HEADER, extrasaction="ignore")
   w.writeheader()
-  w.writerows(rows)
+  w.writerows(table)
   return "\n".join(md) + "\n", buf.getvalue()
 
 

@@ -7,8 +7,12 @@ by every method run from the same settings (`rundir`).
 Rounds r = 1..R: explore from the round's start states (the same for every method; new each round)
 with the configured strategy and the previous round's policy, select episodes, write them to disk,
 re-fit on the demonstrations plus everything selected so far (continuing from the previous parameters,
-or from scratch), and evaluate the base path on the fixed evaluation start states. Evaluation and
-exploration run the same rollout code.
+or from scratch), and evaluate the base path on the fixed evaluation start states, with the same
+sampling keys in every round (so every method and round of a training seed is paired state by
+state). Evaluation and exploration run the same rollout code. `rounds.new_data` makes the two
+reference arms: `none`, the control, re-fits on the previous round's data alone with the same budget
+(no exploration); `expert`, an oracle, explores as its method does and then adds the scripted
+demonstrator's episodes from the start states the method kept instead of the method's own.
 
 Every phase leaves its result before the next starts; running again on an interrupted workdir skips
 finished phases, and since every key is `fold_in(seed, round, phase)` the numbers are the same as an
@@ -40,7 +44,7 @@ from soe_jax.policies.agent import Agent
 from soe_jax.rundir import RunDir, plain, start_keys
 
 # Per-round key streams.
-_FIT, _EXPLORE, _EVALUATE, _FIT_EVALUATE = 1, 2, 3, 4
+_FIT, _EXPLORE, _EVALUATE, _FIT_EVALUATE, _EXPERT = 1, 2, 3, 4, 5
 
 
 @functools.lru_cache(maxsize=8)
@@ -95,11 +99,11 @@ class Experiment:
 
   def evaluate(self, state, r: int, num_states: int | None = None, key=None, progress: bool | None = None) -> dict:
     """The base path from `num_states` (default `eval.num_start_states`) start states split from the
-    evaluation seed (which states depends on the count), sampling with `key` (default: round r's
-    evaluation key)."""
+    evaluation seed (which states depends on the count), sampling with `key` (default: the evaluation
+    key, the same in every round, so that rounds and methods are paired state by state)."""
     n = int(num_states or self.config.eval.num_start_states)
     keys = jax.random.split(jax.random.PRNGKey(int(self.config.eval.seed)), n)
-    key = self.key(r, _EVALUATE) if key is None else key
+    key = self.key(0, _EVALUATE) if key is None else key
     out = self.rollout(state, strategy_registry.make_strategy("dp"), keys, key, f"round {r} evaluate", progress)
     return dict(metrics.rollout_summary(out, 1, state.normalizer), success=out["success"].astype(int).tolist())
 
@@ -122,7 +126,21 @@ class Experiment:
     )
     if "steered" in out["aux"]:
       rec["steered_fraction"] = float(out["aux"]["steered"].mean())
+    if self.config.rounds.new_data == "expert":
+      return self.expert_episodes(state, r, reset_keys[keep], rec)
     return rec, from_rollout(out, keep)
+
+  def expert_episodes(self, state, r: int, reset_keys, rec: dict) -> tuple[dict, list[dict]]:
+    """The oracle's data: the scripted demonstrator's episodes from `reset_keys` (the start states an
+    exploration kept), its successful ones in place of the exploration's."""
+    n = int(reset_keys.shape[0])
+    rec = dict(rec, explored_episodes=rec["num_episodes"], num_episodes=0, expert_success_rate=None)
+    if n == 0:
+      return rec, []
+    expert = strategy_registry.make_strategy("expert", self.env)
+    out = self.rollout(state, expert, reset_keys, self.key(r, _EXPERT), f"round {r} expert data")
+    ok = out["success"].astype(bool)
+    return dict(rec, num_episodes=int(ok.sum()), expert_success_rate=float(ok.mean())), from_rollout(out, ok)
 
   def fit(self, buf, norm, r: int, init_state=None, steps: int | None = None):
     """Round 0 / scratch: fresh parameters, `fit.num_steps` at `fit.lr`; continue: from `init_state`,
@@ -206,7 +224,9 @@ class Experiment:
 
   def explore_phase(self, r: int, state, buf) -> tuple[dict, list[dict]]:
     """Round r's exploration (prepared on `buf`) -> its record and the episodes it kept, saved with it."""
-    meta = dict(env_name=self.env.name, strategy=self.config.explore.strategy.name)
+    meta = dict(
+      env_name=self.env.name, strategy=self.config.explore.strategy.name, new_data=self.config.rounds.new_data
+    )
     save = lambda kept: self.run.save_kept(r, kept, meta)
     return self.phase(r, "explore", lambda: self.explore(state, r, buf), save, self.run.kept)
 
@@ -283,8 +303,9 @@ def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
     selected = []  # the episodes of the rounds done, one set per round
     for r in range(1, int(config.rounds.num_rounds) + 1):
       clock.begin(r)
-      buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)] + selected)
-      selected.append(EpisodeSet(exp.explore_phase(r, state, buf)[1], r))
+      if config.rounds.new_data != "none":  # (the control adds nothing)
+        buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)] + selected)
+        selected.append(EpisodeSet(exp.explore_phase(r, state, buf)[1], r))
       sets = [EpisodeSet(demos, 0)] + selected + exp.run.steered_sets(r, config.rounds.steered == "successful")
       state = exp.fit_phase(r, sets, norm, state if config.rounds.refit == "continue" else None)
       exp.evaluate_phase(r, state)

@@ -10,6 +10,9 @@
   episode length); then the mean over episodes.
 - Relative improvement (after - before) / before, always with the absolute difference beside it (and
   alone when before is 0).
+- Paired comparisons on the same start states: states gained and lost with McNemar's exact p-value
+  (one training seed), and across seeds the Cochran-Mantel-Haenszel test stratified over (seed, state)
+  pairs with the spread of the per-seed differences.
 """
 
 from __future__ import annotations
@@ -120,3 +123,43 @@ def convergence(before, after, curve_rates, max_change: float = 0.03, max_step: 
   last_two = abs(curve_rates[-1] - curve_rates[-2]) if len(curve_rates) >= 2 else None
   ok = abs(c["difference"]) < max_change and last_two is not None and last_two <= max_step
   return dict(c, last_two_change=last_two, converged=bool(ok))
+
+
+def cmh_test(tables) -> dict:
+  """Cochran-Mantel-Haenszel test of K 2x2 tables (K, 2, 2), rows the two arms and columns success and
+  failure: {statistic, p_value (chi-square, 1 df, no continuity correction), odds_ratio (Mantel-
+  Haenszel's common odds ratio; None when undefined)}. Strata of fewer than 2 observations carry no
+  information and are left out. On matched pairs (each stratum one state under both arms) the
+  statistic is McNemar's (gained - lost)^2 / (gained + lost)."""
+  t = np.asarray(tables, np.float64).reshape(-1, 2, 2)
+  n = t.sum(axis=(1, 2))
+  t, n = t[n > 1], n[n > 1]
+  a, b, c, d = t[:, 0, 0], t[:, 0, 1], t[:, 1, 0], t[:, 1, 1]
+  expected = (a + b) * (a + c) / n
+  var = (a + b) * (c + d) * (a + c) * (b + d) / (n**2 * (n - 1))
+  stat = float((a - expected).sum() ** 2 / var.sum()) if var.sum() > 0 else 0.0
+  num, den = float((a * d / n).sum()), float((b * c / n).sum())
+  return dict(statistic=stat, p_value=math.erfc(math.sqrt(stat / 2)), odds_ratio=num / den if den > 0 else None)
+
+
+def pooled_comparison(pairs) -> dict:
+  """Per training seed, the per-state outcomes of a reference and of a method on the same states:
+  [(reference (N_s,), method (N_s,)), ...] -> states gained and lost over all seeds, the difference in
+  success rate per seed with its mean and sample standard deviation over seeds, and the CMH test over the
+  (seed, state) strata (`cmh_test`; its p-value is the pooled paired test)."""
+  per_seed = [paired_comparison(ref, m) for ref, m in pairs]
+  tables = [
+    [[m, 1 - m], [r, 1 - r]] for ref, mine in pairs for r, m in zip(np.asarray(ref, int), np.asarray(mine, int))
+  ]
+  test = cmh_test(tables)
+  diffs = [c["difference"] for c in per_seed]
+  return dict(
+    gained=sum(c["gained"] for c in per_seed),
+    lost=sum(c["lost"] for c in per_seed),
+    differences=diffs,
+    difference_mean=float(np.mean(diffs)),
+    difference_std=float(np.std(diffs, ddof=1)) if len(diffs) > 1 else 0.0,
+    p_value=test["p_value"],
+    statistic=test["statistic"],
+    seed_p_values=[c["p_value"] for c in per_seed],
+  )

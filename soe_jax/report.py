@@ -1,4 +1,5 @@
-"""A run's report (`report.md`, PNG plots) from its `metrics.jsonl` (`aggregate` compares many runs).
+"""A run's report (`report.md`, PNG plots, `outcomes.json`) from its `metrics.jsonl` and phase records
+(`aggregate` compares many runs).
 
 The run's row is shaped like the paper's real-world table: Pass@k, average jerk and rollouts of the
 first exploration round (every method explores from the same round-0 policy and start states), the
@@ -14,6 +15,8 @@ import os
 import numpy as np
 
 from soe_jax import metrics, runlog
+
+OUTCOMES_FILE = "outcomes.json"
 
 
 def _by_phase(lines: list[dict]) -> dict:
@@ -98,7 +101,11 @@ def _improvement(s: dict) -> str:
 
 
 def write(workdir: str) -> dict:
-  """Write `report.md` and the plots; return the summary."""
+  """Write `report.md`, the plots and `outcomes.json` (the per-state outcomes of every evaluation and
+  exploration, `RunDir.outcomes`); return the summary."""
+  from soe_jax import rundir
+
+  rundir.write_json(os.path.join(workdir, OUTCOMES_FILE), rundir.RunDir.open(workdir).outcomes())
   s, phases = _summarize(workdir)
   k = s.get("k", 5)
   md = [

@@ -45,6 +45,7 @@ ADDED = {
   "fit.eval_every": 0,
   "fit.eval_states": 50,
   "policy.bypass.batch_fraction": 1.0,
+  "rounds.new_data": "kept",
 }
 # Fields of configs saved before they moved: old name -> new name ("a.b." is a whole section).
 RENAMED = {
@@ -287,6 +288,18 @@ class RunDir:
   def kept(self, record: dict) -> list[dict]:
     """The episodes the explore phase of `record` kept."""
     return hdf5.read_episodes(self.data_path(record["round"]))[0] if record["num_episodes"] else []
+
+  def outcomes(self) -> dict:
+    """Per-state outcomes of the finished phases: {"evaluate": {round: [0/1 per evaluation state]},
+    "explore": {round: [0/1 per episode, tries adjacent]}} (rounds as strings, as JSON keys are)."""
+    out = {"evaluate": {}, "explore": {}}
+    rounds = os.path.join(self.path, "rounds")
+    found = sorted(int(d) for d in os.listdir(rounds) if d.isdigit()) if os.path.isdir(rounds) else []
+    for r in [0] + found:
+      for phase in out:
+        if os.path.exists(path := self.phase_path(r, phase)):
+          out[phase][str(r)] = read_json(path)["success"]
+    return out
 
   def demonstrations(self) -> list[dict]:
     return hdf5.read_episodes(self.demos_path)[0]

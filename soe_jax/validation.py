@@ -18,6 +18,7 @@ from soe_jax.policies import registry as policy_registry
 REFITS = ("continue", "scratch")
 REFIT_EMA = ("restart", "carry")  # a continued re-fit's EMA
 STEERED = ("successful", "all")  # which steered episodes a fit takes
+NEW_DATA = ("kept", "expert", "none")  # what a round adds to the data
 # Fields that count something: at least 1.
 POSITIVE = ("env.episode_length", "data.num_demos", "data.capacity", "data.max_length", "policy.n_obs_steps",
             "policy.horizon", "policy.n_action_steps", "fit.num_steps", "fit.batch_size", "fit.chunk_size",
@@ -61,6 +62,8 @@ def problems(config: ml_collections.ConfigDict) -> list[str]:
     out.append(f"unknown re-fit mode {config.rounds.refit!r}; known: {', '.join(REFITS)}")
   if config.rounds.refit_ema not in REFIT_EMA:
     out.append(f"unknown rounds.refit_ema {config.rounds.refit_ema!r}; known: {', '.join(REFIT_EMA)}")
+  if config.rounds.new_data not in NEW_DATA:
+    out.append(f"unknown rounds.new_data {config.rounds.new_data!r}; known: {', '.join(NEW_DATA)}")
   if config.rounds.steered not in STEERED:
     out.append(f"unknown rounds.steered {config.rounds.steered!r}; known: {', '.join(STEERED)}")
   out += [f"{f} must be at least 1, got {_get(config, f)}" for f in POSITIVE if _get(config, f) < 1]

@@ -189,8 +189,12 @@ def test_method_presets_choose_the_strategy():
   assert lift_config.get_config("smoke,soe").explore.strategy.kwargs.to_dict() == {"alpha": 2.0}
   with pytest.raises(ValueError, match="choose one method preset"):
     lift_config.get_config("soe,dp")
-  with pytest.raises(ValueError, match="known presets: smoke, cpu, head, dp, sime, soe, soe_steer"):
+  with pytest.raises(
+    ValueError, match="known presets: smoke, cpu, head, expert_data, dp, sime, soe, soe_steer, control"
+  ):
     lift_config.get_config("fast")
+  with pytest.raises(ValueError, match="expert_data goes with an exploring method"):
+    lift_config.get_config("control,expert_data")
 
 
 def test_the_cpu_preset_takes_the_tasks_own_demonstrations_and_steps():

@@ -91,3 +91,21 @@ def test_convergence_needs_a_small_paired_change_and_a_flat_curve():
   better = before.copy()
   better[~before] = True  # every failure becomes a success: far more than 3 points
   assert not metrics.convergence(before, better, flat)["converged"]
+
+
+def test_cmh_on_hand_computed_strata_and_on_matched_pairs_it_is_mcnemars():
+  # Two strata, rows the arms, columns success / failure; by hand: sum(a - E) = 2.5 + 2, summed
+  # variance 15^4 / (30^2 * 29) + 10 * 10 * 12 * 8 / (20^2 * 19) = 3.2028, statistic 6.3226,
+  # p = P(chi2_1 > 6.3226) = 0.01192; MH odds ratio (100/30 + 48/20) / (25/30 + 8/20) = 4.6486.
+  t = metrics.cmh_test([[[10, 5], [5, 10]], [[8, 2], [4, 6]]])
+  assert t["statistic"] == pytest.approx(6.3226, abs=1e-4)
+  assert t["p_value"] == pytest.approx(0.01192, abs=1e-5)
+  assert t["odds_ratio"] == pytest.approx(4.6486, abs=1e-4)
+  assert metrics.cmh_test([[[3, 0], [3, 0]]])["p_value"] == 1.0  # no variance: no evidence
+  # Seeds x states as strata: 4 gained and 1 lost over two seeds -> McNemar's chi-square 9 / 5.
+  c = metrics.pooled_comparison([([1, 0, 0, 1], [1, 1, 1, 0]), ([0, 0, 1], [1, 1, 1])])
+  assert (c["gained"], c["lost"]) == (4, 1)
+  assert c["statistic"] == pytest.approx(1.8) and c["p_value"] == pytest.approx(0.17971, abs=1e-5)
+  assert c["differences"] == pytest.approx([0.25, 2 / 3])
+  assert c["difference_mean"] == pytest.approx(11 / 24) and c["difference_std"] == pytest.approx(0.294628, abs=1e-6)
+  assert c["seed_p_values"] == pytest.approx([1.0, 0.5])  # McNemar's exact, per seed

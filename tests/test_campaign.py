@@ -1,0 +1,123 @@
+"""The comparison of methods as a measurement: the control and the oracle arm, evaluation paired across
+rounds and methods, the aggregate over seeds against the control, and a campaign's exported files."""
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from configs import lift as lift_config
+from soe_jax import aggregate, campaign, loop, runlog
+from soe_jax.rundir import RunDir
+
+
+def test_the_control_refits_on_the_previous_data_alone(smoke_run):
+  root, _, _, _ = smoke_run
+  config = lift_config.get_config("smoke,control")  # beside the fixture: its round 0
+  assert (config.method, config.rounds.new_data) == ("control", "none")
+  workdir = str(root / "lift-control")
+  loop.run(config, workdir, progress=False)
+  phases = [(m["round"], m["phase"]) for m in runlog.read_metrics(workdir)]
+  assert phases == [(0, "fit"), (0, "evaluate"), (1, "fit"), (1, "evaluate"), (2, "fit"), (2, "evaluate")]
+  fits = [m for m in runlog.read_metrics(workdir) if m["phase"] == "fit"]
+  assert [m["num_episodes"] for m in fits] == [config.data.num_demos] * 3  # demonstrations only
+  assert [m["steps"] for m in fits[1:]] == [config.rounds.refit_steps] * 2  # the methods' re-fit budget
+  assert not os.path.exists(os.path.join(workdir, "data"))  # nothing explored, nothing kept
+
+
+def test_every_round_and_method_is_evaluated_on_the_same_states_with_the_same_keys(smoke_run):
+  _, config, workdir, _ = smoke_run
+  state = loop.checkpoint.load(RunDir(workdir, config).ckpt_dir(0)).state
+  outputs = []
+  for method, r in (("soe", 0), ("soe", 2), ("dp", 1)):
+    c = lift_config.get_config(f"smoke,{method}")
+    exp = loop.Experiment(c, RunDir(workdir, c), progress=False)
+    outputs.append(exp.evaluate(state, r))
+  assert outputs[0] == outputs[1] == outputs[2]  # outcomes, jerk, lengths: the same episodes
+  saved = json.load(open(os.path.join(workdir, "outcomes.json")))  # and the run recorded them per state
+  assert saved["evaluate"]["0"] == outputs[0]["success"] and sorted(saved["evaluate"]) == ["0", "1", "2"]
+  assert len(saved["explore"]["1"]) == config.explore.num_start_states * config.explore.tries
+
+
+def test_expert_data_trains_on_the_demonstrators_episodes_from_the_kept_states(smoke_run, tmp_path):
+  import jax
+
+  from soe_jax.data.episodes import policy_episode
+  from soe_jax.envs import manipulation
+  from soe_jax.rundir import start_keys
+
+  _, config, workdir, _ = smoke_run
+  oracle = lift_config.get_config("smoke,dp,expert_data")
+  assert (oracle.method, oracle.rounds.new_data) == ("dp-expert_data", "expert")
+  oracle.explore.strategy.name = "expert"  # an exploration that keeps every start state (in 150 steps)
+  oracle.env.episode_length = oracle.data.max_length = 150
+  oracle.rounds.update(num_rounds=1, round0_dir=str(tmp_path / "round0"))
+  exp = loop.Experiment(oracle, RunDir.create(str(tmp_path / "run"), oracle), progress=False)
+  state = loop.checkpoint.load(RunDir(workdir, config).ckpt_dir(0)).state
+  rec, kept = exp.explore(state, 1, loop.build_buffer(oracle, exp.policy, []))
+  n = oracle.explore.num_start_states
+  assert rec["explored_episodes"] == n and rec["num_episodes"] == len(kept) == n  # the demonstrator's, all kept
+  assert rec["expert_success_rate"] == 1.0 and all(ep["success"] for ep in kept)
+  seed = jax.random.fold_in(jax.random.PRNGKey(start_keys(oracle)["explore_seed"]), 1)  # round 1's states
+  for ep, key in zip(kept, jax.random.split(seed, n)):
+    start = manipulation.policy_obs(exp.env.reset(key).obs)
+    np.testing.assert_allclose(policy_episode(ep)["policy_obs"][0], start, atol=1e-6)
+
+
+def _fake_run(path, method, seed, before, after, new_data="kept"):
+  """A finished one-round run directory with hand-made per-state outcomes."""
+  os.makedirs(path)
+  config = lift_config.get_config(f"smoke,{method}").to_dict()
+  config.update(seed=seed)
+  config["rounds"]["num_rounds"] = 1
+  json.dump(config, open(os.path.join(path, "config.json"), "w"))
+  lines = []
+  for r, outcomes in ((0, before), (1, after)):
+    rate = sum(outcomes) / len(outcomes)
+    lines.append(dict(round=r, phase="evaluate", success_rate=rate, num_rollouts=len(outcomes), wilson_low=0.0,
+                      wilson_high=1.0, time_total_s=1.0))  # fmt: skip
+  if method != "control":
+    lines.insert(1, dict(round=1, phase="explore", pass_at_k=0.5, k=2, jerk=3.0, rollouts=3, rollouts_mean=1.5))
+  with open(os.path.join(path, "metrics.jsonl"), "w") as f:
+    f.writelines(json.dumps(m) + "\n" for m in lines)
+  json.dump(dict(evaluate={"0": before, "1": after}, explore={}), open(os.path.join(path, "outcomes.json"), "w"))
+
+
+def test_aggregate_pairs_each_method_with_its_round0_and_the_control_of_its_seed(tmp_path):
+  base = {0: [1, 0, 0, 1], 1: [0, 0, 1, 0]}
+  _fake_run(tmp_path / "s0" / "soe", "soe", 0, base[0], [1, 1, 1, 0])
+  _fake_run(tmp_path / "s0" / "control", "control", 0, base[0], [1, 0, 0, 0])
+  _fake_run(tmp_path / "s1" / "soe", "soe", 1, base[1], [1, 1, 1, 0])
+  _fake_run(tmp_path / "s1" / "control", "control", 1, base[1], [0, 0, 1, 1])
+  rows = {r["method"]: r for r in aggregate.rows(aggregate.find_runs(str(tmp_path)))}
+  soe, control = rows["soe"], rows["control"]
+  assert soe["seeds"] == control["seeds"] == 2 and soe["sr_after_episodes"] == 8
+  vs0, vsc = soe["comparisons"]["round0"], soe["comparisons"]["control"]
+  assert (vs0["gained"], vs0["lost"]) == (4, 1)  # seed 0: +2 -1; seed 1: +2
+  assert (vsc["gained"], vsc["lost"]) == (4, 1) and vsc["differences"] == [0.5, 0.25]  # seed 1 lost state 3
+  assert vsc["p_value"] == pytest.approx(0.17971, abs=1e-5)  # CMH over (seed, state): chi-square 9 / 5
+  assert soe["vs_control"] == "+37.5 ± 17.7 pts, 4 / 1, p=0.18"
+  assert control["comparisons"]["control"] is None and control["vs_control"] == "-"
+  md, _ = aggregate.aggregate(aggregate.find_runs(str(tmp_path)))
+  assert md.splitlines()[-1].startswith("| lift | control |")  # the control's row last
+  # A method without a control of its seed and settings has no such comparison.
+  _fake_run(tmp_path / "s2" / "dp", "dp", 2, base[0], base[0])
+  assert {r["method"]: r for r in aggregate.rows(aggregate.find_runs(str(tmp_path)))}["dp"]["vs_control"] == "-"
+
+
+def test_a_campaign_runs_its_methods_and_exports_each_run_with_its_command(tmp_path):
+  results = tmp_path / "results"
+  md = campaign.campaign("configs/lift.py:smoke", {"rounds.num_rounds": 1}, 3, ["control"], str(tmp_path / "runs"),
+                         str(results), progress=False)  # fmt: skip
+  out = results / "lift" / "seed3" / "control"
+  assert sorted(os.listdir(out)) == ["command.json", "config.json", "metrics.jsonl", "outcomes.json", "report.md"]
+  source = json.load(open(out / "command.json"))
+  assert source["main_command"].startswith("python -m soe_jax.main --config=configs/lift.py:smoke,control")
+  assert "--config.seed=3" in source["main_command"] and "round0_dir=" in source["main_command"]
+  assert json.load(open(out / "config.json"))["seed"] == 3
+  assert os.path.isdir(tmp_path / "runs" / "lift" / "seed3" / "round0")  # its own round 0
+  assert "| lift | control |" in md and (results / "comparison.md").read_text() == md
+  with pytest.raises(loop.validation.UserError, match=r"method 'sime\+oops'"):
+    campaign.campaign("configs/lift.py:smoke", {}, 0, ["sime+oops"], str(tmp_path / "x"), str(results), False)
+  assert not os.path.exists(tmp_path / "x")  # nothing written for a bad method
