@@ -3,7 +3,7 @@ finishes.
 
   python -m soe_jax.campaign --config=configs/lift.py:cpu --seed=0 \
       [--methods=dp,sime,soe,soe_steer,control,dp+expert_data,soe+expert_data] \
-      [--workdir=runs/campaign] [--results=results/lift_one_round] [--config.a.b=v]
+      [--workdir=runs/campaign] [--results=results/campaign] [--config.a.b=v]
 
 Every method runs as `python -m soe_jax.main` would run the config file with the method's presets
 added (`+` joins presets: `soe+expert_data` is `:...,soe,expert_data`), in one process, so compiled
@@ -34,7 +34,7 @@ flags.DEFINE_list(
   "Methods to run, in order: method presets, `+` joining presets of one method.",
 )
 flags.DEFINE_string("workdir", "runs/campaign", "Where the runs go (<workdir>/<task>/seed<k>/<method>).")
-flags.DEFINE_string("results", None, "Where each finished run's small files go (default results/<task>_campaign).")
+flags.DEFINE_string("results", "results/campaign", "Where each finished run's small files go.")
 flags.DEFINE_bool("progress", True, "Progress bars.")
 FLAGS = flags.FLAGS
 
@@ -101,8 +101,7 @@ def main(argv):
   compile_cache.enable()
   spec = config_flags.get_config_filename(FLAGS["config"])
   overrides = config_flags.get_override_values(FLAGS["config"])
-  results = FLAGS.results or os.path.join("results", f"{FLAGS.config.env.task}_campaign")
-  print(campaign(spec, overrides, FLAGS.seed, FLAGS.methods, FLAGS.workdir, results, FLAGS.progress))
+  print(campaign(spec, overrides, FLAGS.seed, FLAGS.methods, FLAGS.workdir, FLAGS.results, FLAGS.progress))
 
 
 if __name__ == "__main__":
