@@ -32,6 +32,7 @@ CONTROL = "control"
 # What a method's run and its control may differ in: the arm itself.
 _ARM = ("method", "explore.", "rounds.new_data")
 _NOT_SETTINGS = ("seed", "rounds.round0_dir")
+_PER_SEED = ("pass_at_k", "jerk", "rollouts", "sr_before", "sr_after", "improvement_rel", "seed")
 
 
 def find_runs(root: str) -> list[str]:
@@ -150,7 +151,8 @@ def rows(workdirs: list[str]) -> list[dict]:
   for (task, method, v), group in sorted(groups.items(), key=lambda g: (g[0][0], g[0][1] == CONTROL, g[0][1:])):
     after = [r for r in group if "sr_after" in r]
     n = sum(r["sr_episodes"] for r in after)
-    lo, hi = metrics.wilson_interval(sum(int(round(r["sr_after"] * r["sr_episodes"])) for r in after), n)
+    successes = sum(int(round(r["sr_after"] * r["sr_episodes"])) for r in after)
+    lo, hi = metrics.wilson_interval(successes, n)
     evaluated = lambda r, rnd: r["outcomes"]["evaluate"].get(rnd) if rnd is not None else None
     vs_round0 = _comparison([(evaluated(r, "0"), evaluated(r, r["last"])) for r in after if r["last"] != "0"])
     vs_control = None
@@ -182,6 +184,8 @@ def rows(workdirs: list[str]) -> list[dict]:
         vs_control_p=None if vs_control is None else vs_control["p_value"],
         round_wall_s=_mean_std([r.get("round_wall_s") for r in group]),
         comparisons=dict(round0=vs_round0, control=vs_control),
+        per_seed={k: [r.get(k) for r in group] for k in _PER_SEED},
+        sr_after_pooled=(successes, n, lo, hi),
       )
     )
   return out

@@ -1,6 +1,7 @@
 """Tables from committed results: `results/<study>/*.json`, one record per measured run.
 
   python -m soe_jax.results results/clean_inputs
+  python -m soe_jax.results --docs     # every generated table in README.md and BENCHMARKS.md
 
 A record holds the command, the commit, the machine, the config, and the phase records of what it
 measured (`fit`, `evaluate` with the per-state outcomes). The table has a row per record, in file
@@ -8,7 +9,11 @@ order, and compares each row with the first on the same evaluation start states 
 lost, McNemar's exact p-value). Records of `python -m soe_jax.bench converge` (with a `check`) get
 the convergence table instead: a row per fitting recipe; records of `python -m soe_jax.bench latent`
 (with a `latent`) the latent table: effective dimensions and exploration, paired episode by episode
-with the first record's.
+with the first record's. A folder of runs a campaign exported (`python -m soe_jax.campaign`) gets the
+comparison of methods (`campaign_table`).
+
+In README.md and BENCHMARKS.md a generated table sits between `<!-- table: RESULTS_DIR -->` and
+`<!-- /table -->`; `--docs` rewrites each from its folder, and a test checks that they are current.
 """
 
 from __future__ import annotations
@@ -16,10 +21,15 @@ from __future__ import annotations
 import glob
 import json
 import os
+import re
 
-from absl import app
+import numpy as np
+from absl import app, flags
 
 from soe_jax import cli, metrics, runlog
+
+flags.DEFINE_bool("docs", False, "Regenerate every table in README.md and BENCHMARKS.md from its results folder.")
+FLAGS = flags.FLAGS
 
 
 def _pct(x: float) -> str:
@@ -29,7 +39,11 @@ def _pct(x: float) -> str:
 def table(study: str) -> str:
   paths = sorted(glob.glob(os.path.join(study, "*.json")))
   if not paths:
-    raise FileNotFoundError(f"no result records (*.json) in {study!r}")
+    from soe_jax import aggregate
+
+    if runs := aggregate.find_runs(study):
+      return campaign_table(aggregate.rows(runs))
+    raise FileNotFoundError(f"no result records (*.json) or exported runs in {study!r}")
   records = [(os.path.basename(p)[:-5], json.load(open(p))) for p in paths]
   if all("check" in r for _, r in records):
     return convergence_table(records)
@@ -99,9 +113,74 @@ def latent_table(records: list[tuple[str, dict]]) -> str:
   return "\n".join(md) + "\n"
 
 
+def _spread(xs, scale: float = 100, unit: str = "%", sign: str = "") -> str:
+  """Mean ± sample standard deviation over seeds ('-' if none)."""
+  xs = [scale * x for x in xs if x is not None]
+  if not xs:
+    return "-"
+  mean = f"{np.mean(xs):{sign}.1f}"
+  return f"{mean} ± {np.std(xs, ddof=1):.1f}{unit}" if len(xs) > 1 else f"{mean}{unit}"
+
+
+def campaign_table(rows: list[dict]) -> str:
+  """A campaign's runs (`aggregate.rows`): the paper's Table I columns, mean ± standard deviation over
+  training seeds (Pass@k, jerk and rollouts of the first exploration round; success on the evaluation
+  states before and after, after also pooled over seeds with its Wilson interval and episode count),
+  and each method's last round against its round 0 and against the control of each seed, paired
+  state by state (mean difference ± std over seeds; states gained / lost over all seeds; the CMH
+  p-value over (seed, state) pairs)."""
+  md = ["| task | method | seeds | Pass@5 | avg. jerk (m/s^3) | rollouts | success before | success after "
+        "(pooled [95% CI], episodes) | relative improvement | vs round 0: difference, gained / lost, p | "
+        "vs control: difference, gained / lost, p |",
+        "|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+  for r in rows:
+    v = r["per_seed"]
+    k, n, lo, hi = r["sr_after_pooled"]
+    pooled = f"{_spread(v['sr_after'])} ({_pct(k / n)} [{_pct(lo)}, {_pct(hi)}], n={n})" if n else "-"
+    md.append(
+      f"| {r['task']} | {r['method']}{r['variant'] and ' (' + r['variant'] + ')'} | {r['seeds']} | "
+      f"{_spread(v['pass_at_k'])} | {_spread(v['jerk'], 1, '')} | {_spread(v['rollouts'], 1, '')} | "
+      f"{_spread(v['sr_before'])} | {pooled} | {_spread(v['improvement_rel'], sign='+')} | {r['vs_round0']} | "
+      f"{r['vs_control']} |"
+    )
+  return "\n".join(md) + "\n"
+
+
+# A generated table in README.md or BENCHMARKS.md: between these lines, naming its results folder.
+_BEGIN = re.compile(r"^<!-- table: (\S+) -->$")
+_END = "<!-- /table -->"
+DOCS = ("README.md", "BENCHMARKS.md")
+
+
+def regenerate(text: str) -> str:
+  """`text` with every generated table replaced by the one its results folder gives now."""
+  out, lines, i = [], text.splitlines(keepends=True), 0
+  while i < len(lines):
+    out.append(lines[i])
+    if m := _BEGIN.match(lines[i].rstrip("\n")):
+      end = next((j for j in range(i + 1, len(lines)) if lines[j].rstrip("\n") == _END), None)
+      if end is None:
+        raise ValueError(f"'{lines[i].strip()}' has no '{_END}' after it")
+      out += [table(m.group(1)), lines[end]]
+      i = end
+    i += 1
+  return "".join(out)
+
+
 def main(argv):
+  if FLAGS.docs:
+    if len(argv) != 1:
+      raise app.UsageError("usage: python -m soe_jax.results --docs (from the repository's root)")
+    for path in DOCS:
+      old = open(path).read()
+      new = regenerate(old)
+      if new != old:
+        with open(path, "w") as f:
+          f.write(new)
+      print(f"{path}: {'rewritten' if new != old else 'up to date'}")
+    return
   if len(argv) != 2:
-    raise app.UsageError("usage: python -m soe_jax.results RESULTS_DIR")
+    raise app.UsageError("usage: python -m soe_jax.results RESULTS_DIR | --docs")
   print(table(argv[1]), end="")
 
 

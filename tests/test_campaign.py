@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from configs import lift as lift_config
-from soe_jax import aggregate, campaign, loop, runlog
+from soe_jax import aggregate, campaign, loop, results, runlog
 from soe_jax.rundir import RunDir
 
 
@@ -101,6 +101,11 @@ def test_aggregate_pairs_each_method_with_its_round0_and_the_control_of_its_seed
   assert control["comparisons"]["control"] is None and control["vs_control"] == "-"
   md, _ = aggregate.aggregate(aggregate.find_runs(str(tmp_path)))
   assert md.splitlines()[-1].startswith("| lift | control |")  # the control's row last
+  table = results.table(str(tmp_path)).splitlines()  # the folder's runs -> the paper's columns
+  assert table[2] == ("| lift | soe | 2 | 50.0 ± 0.0% | 3.0 ± 0.0 | 3.0 ± 0.0 | 37.5 ± 17.7% | 75.0 ± 0.0% (75.0% "
+                      "[40.9%, 92.9%], n=8) | +125.0 ± 106.1% | +37.5 ± 17.7 pts, 4 / 1, p=0.18 | "
+                      "+37.5 ± 17.7 pts, 4 / 1, p=0.18 |")  # fmt: skip
+  assert table[3].startswith("| lift | control | 2 | - | - | - | 37.5 ± 17.7% |") and table[3].endswith("| - |")
   # A method without a control of its seed and settings has no such comparison.
   _fake_run(tmp_path / "s2" / "dp", "dp", 2, base[0], base[0])
   assert {r["method"]: r for r in aggregate.rows(aggregate.find_runs(str(tmp_path)))}["dp"]["vs_control"] == "-"

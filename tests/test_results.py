@@ -1,6 +1,9 @@
 """Tables from committed result records compare every row with the first on the same states."""
 
 import json
+import os
+
+import pytest
 
 from soe_jax import results
 
@@ -51,3 +54,24 @@ def test_latent_records_get_effective_dimensions_and_exploration_paired_with_the
   assert rows[0].startswith("| 01 | - | abc | 2 [2, 0] | 5.0 dB | 50.0%") and rows[0].endswith("| 0 / 0 (p=1.000) |")
   assert rows[1].startswith("| 02 | policy.bypass.batch_fraction=0.25 | abc | 1 [1] | 1.0 dB | 75.0%")
   assert rows[1].endswith("| 2 / 1 (p=1.000) |")
+
+
+def test_generated_tables_are_rewritten_between_their_markers(tmp_path, monkeypatch):
+  (tmp_path / "study").mkdir()
+  (tmp_path / "study" / "01_a.json").write_text(json.dumps(_record([1, 0], "aaa")))
+  monkeypatch.chdir(tmp_path)
+  text = "intro\n<!-- table: study -->\n| stale |\n<!-- /table -->\nafter\n"
+  new = results.regenerate(text)
+  assert new.startswith("intro\n<!-- table: study -->\n| record |") and new.endswith("<!-- /table -->\nafter\n")
+  assert "| stale |" not in new and "| 01_a | x | aaa |" in new and results.regenerate(new) == new
+  with pytest.raises(ValueError, match="has no '<!-- /table -->'"):
+    results.regenerate("<!-- table: study -->\n| x |\n")
+
+
+def test_the_docs_tables_are_the_ones_their_committed_results_give(monkeypatch):
+  """Every generated table in README.md and BENCHMARKS.md is current (`python -m soe_jax.results --docs`)."""
+  monkeypatch.chdir(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+  for path in results.DOCS:
+    text = open(path).read()
+    assert "<!-- table: " in text or path == "README.md"
+    assert results.regenerate(text) == text, f"{path} is stale: run python -m soe_jax.results --docs"
