@@ -1,10 +1,10 @@
 """Shared config pieces and the preset parser for `configs/<task>.py[:PRESETS]`.
 
 `python -m soe_jax.main --config=configs/TASK.py:cpu,soe` runs round 0 (scripted demonstrations, the
-round-0 fit with the VIB bypass, evaluation on 100 fixed start states) and one round of exploration
-(100 start states x 5 tries) -> keep each state's first success -> re-fit -> evaluate, leaving
-metrics.jsonl, report.md and plots in runs/TASK-METHOD-<time>/. Round 0 is shared by every method run
-beside it.
+round-0 fit with the VIB bypass, evaluation on 200 fixed start states) and one round of exploration
+(100 start states x 5 tries) -> keep each state's first success -> re-fit -> evaluate (the same
+states with the same sampling keys), leaving metrics.jsonl, report.md, outcomes.json and plots in
+runs/TASK-METHOD-seed<k>/. Round 0 is shared by every method run beside it.
 
 Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
 `configs/square.py:head=flow_unet,smoke`:

@@ -55,9 +55,8 @@ def save(directory: str, state: train_state.TrainState, config: ml_collections.C
   """Write `state` and `config` under `directory` (replacing what was there)."""
   directory = os.path.abspath(directory)
   os.makedirs(directory, exist_ok=True)
-  checkpointer = ocp.StandardCheckpointer()
-  checkpointer.save(os.path.join(directory, STATE_DIR), jax.device_get(state), force=True)
-  checkpointer.wait_until_finished()
+  with ocp.StandardCheckpointer() as checkpointer:  # closed on exit: its writes finished, its threads gone
+    checkpointer.save(os.path.join(directory, STATE_DIR), jax.device_get(state), force=True)
   with open(os.path.join(directory, FORMAT_FILE), "w") as f:
     json.dump({"format": FORMAT}, f)
   tmp = os.path.join(directory, CONFIG_FILE + ".tmp")
@@ -96,5 +95,6 @@ def load(directory: str) -> LoadedPolicy:
     config = ml_collections.ConfigDict(json.load(f))
   policy = policy_from_config(config)
   target = abstract_state(config, policy)
-  state = ocp.StandardCheckpointer().restore(os.path.join(directory, STATE_DIR), target)
+  with ocp.StandardCheckpointer() as checkpointer:
+    state = checkpointer.restore(os.path.join(directory, STATE_DIR), target)
   return LoadedPolicy(policy, state, config)
