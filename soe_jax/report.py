@@ -100,12 +100,28 @@ def _improvement(s: dict) -> str:
   return abs_ if rel is None else f"{100 * rel:+.1f}% ({abs_})"
 
 
+def _paired_with_round0(evaluated: dict, rounds: list[int]) -> list[str]:
+  """The last round against round 0 on the same states and sampling keys (no lines if either is missing)."""
+  last = str(rounds[-1]) if rounds else "0"
+  if last == "0" or "0" not in evaluated or last not in evaluated:
+    return []
+  c = metrics.paired_comparison(evaluated["0"], evaluated[last])
+  return [
+    f"Paired with round 0 (the same {len(evaluated['0'])} start states and sampling keys): round {last} gained "
+    f"{c['gained']} states and lost {c['lost']}, {100 * c['difference']:+.1f} points [{100 * c['low']:+.1f}, "
+    f"{100 * c['high']:+.1f}], McNemar's exact p = {c['p_value']:.3g}. Against the control (the same re-fits "
+    "without new data) and over seeds: `python -m soe_jax.aggregate`.",
+    "",
+  ]
+
+
 def write(workdir: str) -> dict:
   """Write `report.md`, the plots and `outcomes.json` (the per-state outcomes of every evaluation and
   exploration, `RunDir.outcomes`); return the summary."""
   from soe_jax import rundir
 
-  rundir.write_json(os.path.join(workdir, OUTCOMES_FILE), rundir.RunDir.open(workdir).outcomes())
+  outcomes = rundir.RunDir.open(workdir).outcomes()
+  rundir.write_json(os.path.join(workdir, OUTCOMES_FILE), outcomes)
   s, phases = _summarize(workdir)
   k = s.get("k", 5)
   md = [
@@ -120,6 +136,7 @@ def write(workdir: str) -> dict:
     "Pass@k, jerk and rollouts: the first exploration round (from the shared round-0 policy). Success: the base "
     "path on the fixed evaluation start states, with its 95% Wilson interval and episode count.",
     "",
+    *_paired_with_round0(outcomes["evaluate"], s["rounds"]),
     "## Per round",
     "",
     f"| Round | Success | Pass@{k} | Rollouts | Jerk | Episodes kept | Fit loss | Wall time (s) |",

@@ -51,6 +51,7 @@ def test_a_run_leaves_metrics_report_plots_and_data(smoke_run):
     assert 0.0 <= m["obs_out_of_range"] <= 1.0
   for name in (
     "report.md",
+    "outcomes.json",
     "success.png",
     "exploration.png",
     "seeds.json",
@@ -66,6 +67,9 @@ def test_a_run_leaves_metrics_report_plots_and_data(smoke_run):
     assert matplotlib.image.imread(os.path.join(workdir, plot)).shape[1] >= 1000  # pixels wide
   text = open(os.path.join(workdir, "report.md")).read()
   assert "| soe |" in text and f"(n={config.eval.num_start_states})" in text
+  assert (
+    f"Paired with round 0 (the same {config.eval.num_start_states} start states and sampling keys): round 2" in text
+  )
   assert summary["rounds"] == [0, 1, 2] and len(summary["success_per_round"]) == 3
   # Round 0 is stored once, beside the run, for every method with the same settings.
   assert os.path.exists(os.path.join(RunDir(workdir, config).round0, "ckpt", "config.json"))
