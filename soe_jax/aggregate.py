@@ -185,6 +185,7 @@ def rows(workdirs: list[str]) -> list[dict]:
         round_wall_s=_mean_std([r.get("round_wall_s") for r in group]),
         comparisons=dict(round0=vs_round0, control=vs_control),
         per_seed={k: [r.get(k) for r in group] for k in _PER_SEED},
+        runs=group,
         sr_after_pooled=(successes, n, lo, hi),
       )
     )

@@ -10,7 +10,7 @@ lost, McNemar's exact p-value). Records of `python -m soe_jax.bench converge` (w
 the convergence table instead: a row per fitting recipe; records of `python -m soe_jax.bench latent`
 (with a `latent`) the latent table: effective dimensions and exploration, paired episode by episode
 with the first record's. A folder of runs a campaign exported (`python -m soe_jax.campaign`) gets the
-comparison of methods (`campaign_table`).
+comparison of methods (`campaign_table`) and the paper's claims tested on it (`soe_jax.claims`).
 
 In README.md and BENCHMARKS.md a generated table sits between `<!-- table: RESULTS_DIR -->` and
 `<!-- /table -->`; `--docs` rewrites each from its folder, and a test checks that they are current.
@@ -42,7 +42,8 @@ def table(study: str) -> str:
     from soe_jax import aggregate
 
     if runs := aggregate.find_runs(study):
-      return campaign_table(aggregate.rows(runs))
+      rows = aggregate.rows(runs)
+      return campaign_table(rows) + "\n" + campaign_claims(rows)
     raise FileNotFoundError(f"no result records (*.json) or exported runs in {study!r}")
   records = [(os.path.basename(p)[:-5], json.load(open(p))) for p in paths]
   if all("check" in r for _, r in records):
@@ -144,6 +145,16 @@ def campaign_table(rows: list[dict]) -> str:
       f"{r['vs_control']} |"
     )
   return "\n".join(md) + "\n"
+
+
+def campaign_claims(rows: list[dict]) -> str:
+  """Per task, the paper's four comparative claims as tested on the runs (`claims`), one line each."""
+  from soe_jax import claims
+
+  lines = []
+  for task in sorted({r["task"] for r in rows}):
+    lines += [f"- {task}: {c}" for c in claims.claims(rows, task)]
+  return "\n".join(lines) + "\n"
 
 
 # A generated table in README.md or BENCHMARKS.md: between these lines, naming its results folder.

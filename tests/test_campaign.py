@@ -65,8 +65,9 @@ def test_expert_data_trains_on_the_demonstrators_episodes_from_the_kept_states(s
     np.testing.assert_allclose(policy_episode(ep)["policy_obs"][0], start, atol=1e-6)
 
 
-def _fake_run(path, method, seed, before, after, new_data="kept"):
-  """A finished one-round run directory with hand-made per-state outcomes."""
+def _fake_run(path, method, seed, before, after, explored=(), jerk=3.0):
+  """A finished one-round run directory with hand-made per-state outcomes (`explored`: per start
+  state, its 2 tries)."""
   os.makedirs(path)
   config = lift_config.get_config(f"smoke,{method}").to_dict()
   config.update(seed=seed)
@@ -78,10 +79,11 @@ def _fake_run(path, method, seed, before, after, new_data="kept"):
     lines.append(dict(round=r, phase="evaluate", success_rate=rate, num_rollouts=len(outcomes), wilson_low=0.0,
                       wilson_high=1.0, time_total_s=1.0))  # fmt: skip
   if method != "control":
-    lines.insert(1, dict(round=1, phase="explore", pass_at_k=0.5, k=2, jerk=3.0, rollouts=3, rollouts_mean=1.5))
+    lines.insert(1, dict(round=1, phase="explore", pass_at_k=0.5, k=2, jerk=jerk, rollouts=3, rollouts_mean=1.5))
   with open(os.path.join(path, "metrics.jsonl"), "w") as f:
     f.writelines(json.dumps(m) + "\n" for m in lines)
-  json.dump(dict(evaluate={"0": before, "1": after}, explore={}), open(os.path.join(path, "outcomes.json"), "w"))
+  explore = {"1": [t for state in explored for t in state]} if explored else {}
+  json.dump(dict(evaluate={"0": before, "1": after}, explore=explore), open(os.path.join(path, "outcomes.json"), "w"))
 
 
 def test_aggregate_pairs_each_method_with_its_round0_and_the_control_of_its_seed(tmp_path):
@@ -126,3 +128,32 @@ def test_a_campaign_runs_its_methods_and_exports_each_run_with_its_command(tmp_p
   with pytest.raises(loop.validation.UserError, match=r"method 'sime\+oops'"):
     campaign.campaign("configs/lift.py:smoke", {}, 0, ["sime+oops"], str(tmp_path / "x"), str(results), False)
   assert not os.path.exists(tmp_path / "x")  # nothing written for a bad method
+
+
+def test_the_papers_claims_are_tested_on_the_paired_runs(tmp_path):
+  from soe_jax import claims
+
+  n = 40
+  base, good, bad = [0] * n, [1] * 30 + [0] * 10, [1] * 5 + [0] * 35
+  explored = {"soe": [[1, 0]] * 30 + [[0, 1]] * 10, "sime": [[0, 1]] * 25 + [[0, 0]] * 15, "dp": [[0, 0]] * n}
+  jerks = {"soe": [3.0, 3.3, 2.9], "sime": [9.0, 12.0, 10.0], "dp": [3.1, 3.0, 3.2]}
+  for seed in range(3):
+    for method in ("soe", "sime", "dp"):
+      after = good if method == "soe" else bad
+      _fake_run(tmp_path / f"s{seed}" / method, method, seed, base, after, explored[method], jerks[method][seed])
+    _fake_run(tmp_path / f"s{seed}" / "control", "control", seed, base, bad)
+  success, passes, rollouts, jerk = claims.claims(aggregate.rows(aggregate.find_runs(str(tmp_path))), "lift")
+  assert success.startswith("SOE raises success (paper: +19% to +62% relative, DP can degrade): reproduced.")
+  assert "SOE against the control +62.5 points (p = " in success and "DP against the control +0.0 points" in success
+  assert "relative to round 0 undefined (round 0 at 0%)" in success
+  assert passes.startswith("Pass@5 ordered SOE > SIME > DP: reproduced;")  # per seed: 40, 25 and 0 states
+  assert "SOE - SIME +37.5 points" in passes and "SIME - DP +62.5 points" in passes
+  assert rollouts.startswith("SOE needs the fewest rollouts: reproduced;")
+  assert (
+    "fewer than dp on 90 start states, more on 0" in rollouts
+    and "fewer than sime on 90 start states, more on 0" in rollouts
+  )
+  assert jerk.startswith("SIME's jerk far above DP's and SOE's: reproduced; SIME / DP 3.31x (p = 0.0065)")
+  assert "SOE / DP 0.99x (p = 0.8" in jerk
+  md = results.table(str(tmp_path))
+  assert "- lift: SOE needs the fewest rollouts: reproduced" in md
