@@ -58,7 +58,7 @@ def success_claim(m: dict) -> str:
     dp_text = f"; DP against the control {100 * dp_c['difference_mean']:+.1f} points (p = {dp_c['p_value']:.2g})"
   return (
     f"SOE raises success (paper: +19% to +62% relative, DP can degrade): {_verdict(ok)}. SOE against the "
-    f"control {100 * c['difference_mean']:+.1f} points (p = {c['p_value']:.2g}, {c['seeds']} seeds), "
+    f"control {100 * c['difference_mean']:+.1f} points (p = {c['p_value']:.2g}, {c['seeds']} seed{'s' if c['seeds'] > 1 else ''}), "
     f"{rel}{dp_text}."
   )
 
