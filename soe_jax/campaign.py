@@ -20,7 +20,7 @@ from __future__ import annotations
 import os
 import shutil
 
-from absl import app, flags
+from absl import flags
 from ml_collections import config_flags
 
 from soe_jax import cli
@@ -92,15 +92,7 @@ def campaign(spec: str, overrides: dict, seed: int, methods: list[str], root: st
 
 
 def main(argv):
-  if len(argv) > 1:
-    raise app.UsageError(f"unexpected arguments: {argv[1:]}")
-  if FLAGS.config is None:
-    raise app.UsageError("--config=configs/<task>.py[:PRESETS] is required")
-  from soe_jax import compile_cache
-
-  compile_cache.enable()
-  spec = config_flags.get_config_filename(FLAGS["config"])
-  overrides = config_flags.get_override_values(FLAGS["config"])
+  spec, overrides = cli.config_file(argv, FLAGS["config"])
   print(campaign(spec, overrides, FLAGS.seed, FLAGS.methods, FLAGS.workdir, FLAGS.results, FLAGS.progress))
 
 

@@ -44,3 +44,19 @@ def run(
     with contextlib.redirect_stdout(io.StringIO()):  # MJX prints that the optional warp is missing
       import mujoco.mjx  # noqa: F401
   app.run(wrapped, flags_parser=flags_parser or app.parse_flags_with_usage)
+
+
+def config_file(argv: list[str], flag) -> tuple[str, dict]:
+  """For a command of one `--config=configs/<task>.py[:PRESETS]` flag (`flag`, e.g. `FLAGS["config"]`)
+  and no positional arguments: the config file's spec and the `--config.a.b=v` overrides, with the
+  persistent compilation cache turned on."""
+  from ml_collections import config_flags
+
+  from soe_jax import compile_cache
+
+  if len(argv) > 1:
+    raise app.UsageError(f"unexpected arguments: {argv[1:]}")
+  if flag.value is None:
+    raise app.UsageError("--config=configs/<task>.py[:PRESETS] is required")
+  compile_cache.enable()
+  return config_flags.get_config_filename(flag), config_flags.get_override_values(flag)

@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import os
 
-from absl import app, flags
+from absl import flags
 from ml_collections import config_flags
 
 from soe_jax import cli
@@ -89,15 +89,9 @@ def compare(configs: dict, workdir: str, num_start_states: int, tries: int, prog
 
 
 def main(argv):
-  if len(argv) > 1:
-    raise app.UsageError(f"unexpected arguments: {argv[1:]}")
-  if FLAGS.config is None:
-    raise app.UsageError("--config=configs/<task>.py[:PRESETS] is required")
-  from soe_jax import compile_cache, configfile
+  from soe_jax import configfile
 
-  compile_cache.enable()
-  spec = config_flags.get_config_filename(FLAGS["config"])
-  overrides = config_flags.get_override_values(FLAGS["config"])
+  spec, overrides = cli.config_file(argv, FLAGS["config"])
   configs = {m: configfile.load(spec, m, overrides) for m in FLAGS.methods}
   workdir = FLAGS.workdir or os.path.join("runs", f"compare-{FLAGS.config.env.task}")
   rows = compare(configs, workdir, FLAGS.num_start_states, FLAGS.tries, FLAGS.progress)
