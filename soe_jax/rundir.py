@@ -3,6 +3,7 @@
   <workdir>/config.json               the run's config (a different one is refused, naming the fields)
   <workdir>/seeds.json                evaluation and exploration start-state seeds
   <workdir>/metrics.jsonl, tb/        the log (`runlog`)
+  <workdir>/report.md, outcomes.json  the report and every evaluation's per-state outcomes (`report`)
   <workdir>/rounds/<r>/<phase>.json   each finished phase's record (explore, fit, evaluate)
   <workdir>/rounds/<r>/ckpt/          round r's policy
   <workdir>/data/round_<r>.hdf5       the episodes round r kept
