@@ -27,7 +27,7 @@ LAYERS = [
   ("rollout", "fit", "checkpoint", "runlog"),
   ("rundir", "report", "validation"),
   ("loop", "steer", "bench"),
-  ("main", "compare", "aggregate", "results"),
+  ("main", "compare", "campaign", "aggregate", "claims", "results"),
 ]
 LEVEL = {name: i for i, names in enumerate(LAYERS) for name in names}
 
