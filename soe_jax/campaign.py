@@ -26,17 +26,23 @@ from ml_collections import config_flags
 from soe_jax import cli
 from soe_jax.errors import UserError
 
-config_flags.DEFINE_config_file("config", None, "configs/<task>.py[:PRESETS], without a method", lock_config=True)
-flags.DEFINE_integer("seed", 0, "The training seed (`config.seed`).")
-flags.DEFINE_list(
-  "methods",
-  ["dp", "sime", "soe", "soe_steer", "control", "dp+expert_data", "soe+expert_data"],
-  "Methods to run, in order: method presets, `+` joining presets of one method.",
-)
-flags.DEFINE_string("workdir", "runs/campaign", "Where the runs go (<workdir>/<task>/seed<k>/<method>).")
-flags.DEFINE_string("results", "results/campaign", "Where each finished run's small files go.")
-flags.DEFINE_bool("progress", True, "Progress bars.")
 FLAGS = flags.FLAGS
+
+
+def define_flags() -> None:
+  """The command's flags, defined only when it runs (its functions are imported beside other commands
+  that define `--config` too)."""
+  config_flags.DEFINE_config_file("config", None, "configs/<task>.py[:PRESETS], without a method", lock_config=True)
+  flags.DEFINE_integer("seed", 0, "The training seed (`config.seed`).")
+  flags.DEFINE_list(
+    "methods",
+    ["dp", "sime", "soe", "soe_steer", "control", "dp+expert_data", "soe+expert_data"],
+    "Methods to run, in order: method presets, `+` joining presets of one method.",
+  )
+  flags.DEFINE_string("workdir", "runs/campaign", "Where the runs go (<workdir>/<task>/seed<k>/<method>).")
+  flags.DEFINE_string("results", "results/campaign", "Where each finished run's small files go.")
+  flags.DEFINE_bool("progress", True, "Progress bars.")
+
 
 # A run's files that go into results/ (everything else, checkpoints and data, stays in the workdir).
 EXPORTED = ("config.json", "metrics.jsonl", "outcomes.json", "report.md")
@@ -97,4 +103,5 @@ def main(argv):
 
 
 if __name__ == "__main__":
+  define_flags()
   cli.run(main, interrupted="interrupted: the finished phases are saved; run the same command to resume")
