@@ -44,12 +44,12 @@ def find_runs(root: str) -> list[str]:
   return sorted(found)
 
 
-def _mean_std(xs, fmt: str = ".3g") -> str:
+def _mean_std(xs) -> str:
   """Mean ± sample standard deviation over seeds (the value alone for one seed; '-' for none)."""
   xs = [x for x in xs if x is not None]
   if not xs:
     return "-"
-  return f"{np.mean(xs):{fmt}} ± {np.std(xs, ddof=1):.2g}" if len(xs) > 1 else f"{xs[0]:{fmt}}"
+  return f"{np.mean(xs):.3g} ± {np.std(xs, ddof=1):.2g}" if len(xs) > 1 else f"{xs[0]:.3g}"
 
 
 def _settings(workdir: str) -> dict:

@@ -71,24 +71,24 @@ def campaign(spec: str, overrides: dict, seed: int, methods: list[str], root: st
   from soe_jax import aggregate, configfile, loop, provenance, validation
 
   overrides = dict(overrides, seed=seed)
-  configs = {}
-  for m in methods:  # every config checked before anything runs
+  configs = {}  # {the method's presets: its config}, every one checked before anything runs
+  for m in methods:
+    presets = m.replace("+", ",")
     try:
-      config = configfile.load(spec, m.replace("+", ","), overrides)
+      configs[presets] = configfile.load(spec, presets, overrides)
     except ValueError as e:
       raise UserError(f"method {m!r}: {e}") from None
-    validation.check(config)
-    configs[m] = config
+    validation.check(configs[presets])
   task = next(iter(configs.values())).env.task
   base = os.path.join(root, task, f"seed{seed}")
   header = provenance.header()
   md = ""
-  for m, config in configs.items():
+  for presets, config in configs.items():
     config.rounds.round0_dir = os.path.join(base, "round0")
     workdir = os.path.join(base, config.method)
     print(f"== {task} seed {seed}: {config.method}", flush=True)
     loop.run(config, workdir, progress)
-    command = main_command(spec, m.replace("+", ","), overrides, workdir, config.rounds.round0_dir)
+    command = main_command(spec, presets, overrides, workdir, config.rounds.round0_dir)
     export(workdir, os.path.join(results, task, f"seed{seed}", config.method), dict(header, main_command=command))
     md, csv_text = aggregate.aggregate(aggregate.find_runs(results))
     for ext, text in (("md", md), ("csv", csv_text)):

@@ -80,11 +80,10 @@ def pass_claim(m: dict) -> str:
 
 
 def sign_test(a, b) -> dict:
-  """Paired values: how often a < b and a > b, and the exact two-sided binomial p-value on those."""
+  """Paired values: how often a < b and a > b, and the exact sign test's p-value on those."""
   a, b = np.asarray(a), np.asarray(b)
   fewer, more = int((a < b).sum()), int((a > b).sum())
-  p = 1.0 if fewer + more == 0 else float(stats.binomtest(fewer, fewer + more).pvalue)
-  return dict(fewer=fewer, more=more, p_value=p)
+  return dict(fewer=fewer, more=more, p_value=metrics.sign_test_p(fewer, more))
 
 
 def _rollouts(r: dict):

@@ -100,14 +100,21 @@ def rollout_summary(out: dict, tries: int, normalizer=None) -> dict:
   return rec
 
 
+def sign_test_p(up: int, down: int) -> float:
+  """The exact two-sided sign test: how likely a split at least as uneven as `up` against `down` is
+  when each of the `up + down` differing pairs goes either way with probability 1/2 (McNemar's exact
+  test when the pairs are gained and lost states)."""
+  n, k = up + down, min(up, down)
+  return 1.0 if n == 0 else min(1.0, 2 * sum(math.comb(n, i) for i in range(k + 1)) / 2**n)
+
+
 def paired_comparison(before, after, z: float = 1.959963984540054) -> dict:
   """Per-state outcomes (N,) of two evaluations on the same start states -> states gained and lost,
   McNemar's exact two-sided p-value (binomial on the discordant pairs), and the difference in success
   rate with its Wald interval for paired proportions (se^2 = ((g + l) / N - ((g - l) / N)^2) / N)."""
   before, after = np.asarray(before, bool), np.asarray(after, bool)
   gained, lost = int((after & ~before).sum()), int((before & ~after).sum())
-  n, k = gained + lost, min(gained, lost)
-  p = 1.0 if n == 0 else min(1.0, 2 * sum(math.comb(n, i) for i in range(k + 1)) / 2**n)
+  n, p = gained + lost, sign_test_p(gained, lost)
   states = len(before)
   diff = (gained - lost) / states
   se = math.sqrt(max(0.0, (n / states - diff**2) / states))
