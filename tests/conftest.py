@@ -3,14 +3,32 @@
 import functools
 import os
 
-os.environ.setdefault("MUJOCO_GL", "egl")  # headless rendering; must precede the first import of mujoco
-
 import jax
 import pytest
 
 from soe_jax import compile_cache
 
 compile_cache.enable()
+
+
+def _mappings() -> int:
+  with open("/proc/self/maps") as f:
+    return sum(1 for _ in f)
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _release_compiled_programs():
+  """Free the compiled programs of each test file when it ends. XLA maps each CPU executable's code
+  into a few dozen memory regions and keeps it while its jitted function lives; over the whole suite
+  the mappings would reach the kernel's limit per process (vm.max_map_count, 65530 by default), and
+  the next compile crashes the process. Programs used again recompile (from the persistent cache)."""
+  yield
+  jax.clear_caches()
+  limit_file = "/proc/sys/vm/max_map_count"
+  if os.path.exists(limit_file):
+    with open(limit_file) as f:
+      limit = int(f.read())
+    assert _mappings() < 0.5 * limit, f"{_mappings()} memory mappings after clearing, of at most {limit}"
 
 
 @functools.cache
