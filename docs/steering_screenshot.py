@@ -1,20 +1,17 @@
 """The steering page's picture in the README (`docs/steering.png`, 1280x800), taken in headless chromium
 after the first frame: one proposal executed, then the proposals along the strongest dimension.
 
-  MUJOCO_GL=egl python docs/steering_screenshot.py --workdir=runs/square-soe-seed0 [--round=0]
+  python docs/steering_screenshot.py --workdir=runs/square-soe-seed0 [--round=0]
 
 Needs Debian's chromium (see the README's test section)."""
 
 from __future__ import annotations
 
-import os
 import threading
 
-os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported
+from absl import flags
 
-from absl import flags  # noqa: E402
-
-from soe_jax import cli  # noqa: E402
+from soe_jax import cli
 
 flags.DEFINE_string("workdir", None, "A run directory written by python -m soe_jax.main.", required=True)
 flags.DEFINE_integer("round", None, "The round whose policy to steer (default: the last finished).")
@@ -32,7 +29,7 @@ def main(argv):
   url = f"http://127.0.0.1:{httpd.server_address[1]}/"
   failed = []
 
-  def shoot():  # the browser on a thread of its own: the server (and its renderer) stay on this one
+  def shoot():  # the browser on a thread of its own: the server stays on this one
     from playwright.sync_api import sync_playwright
 
     try:

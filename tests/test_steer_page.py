@@ -33,6 +33,12 @@ def page_server(smoke_run):
   yield f"http://127.0.0.1:{httpd.server_address[1]}", s, workdir
   httpd.shutdown()
   httpd.server_close()
+  s.close()
+
+
+def _mapped(name: str) -> bool:
+  with open("/proc/self/maps") as f:
+    return any(name in line for line in f)
 
 
 def _post(url, body):
@@ -83,6 +89,8 @@ def test_steer_a_proposal_and_save_it_from_the_browser(page_server):
     assert "leaves it out" in page.inner_text("#saved-note") or session.success
     assert page.inner_text("#step") == "0"  # a fresh episode after saving
     browser.close()
+  # The frames were drawn by a child process: Mesa's LLVM never entered this one, which compiles XLA.
+  assert session.frames is not None and not _mapped("libLLVM")
   episodes, env_args = hdf5.read_episodes(path)
   assert len(episodes) == 1 and episodes[0]["actions"].shape == (steps, 10)
   assert episodes[0]["success"] is False  # a few steps of a smoke policy do not lift the cube

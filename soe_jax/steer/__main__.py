@@ -1,23 +1,20 @@
 """Steer a finished run's policy by hand in a local web page.
 
-  MUJOCO_GL=egl python -m soe_jax.steer --workdir=DIR [--round=R] [--port=P] [--host=127.0.0.1]
+  python -m soe_jax.steer --workdir=DIR [--round=R] [--port=P] [--host=127.0.0.1]
 
 Open the printed address (printed once the policy is compiled and the first frame rendered), pick an
 effective latent dimension, click one of the proposals drawn over the scene to execute it, and save
 the finished episode: it is added to the run's data as a steered episode
 (`data/steered_round_<R>.hdf5`); the next round's fit takes the successful ones (all of them with
-`--config.rounds.steered=all` on the run).
+`--config.rounds.steered=all` on the run). The frames are drawn headless with EGL (another
+`MUJOCO_GL` in the environment is used instead), in a process of their own (`soe_jax.steer.frames`).
 """
 
 from __future__ import annotations
 
-import os
+from absl import app, flags
 
-os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported
-
-from absl import app, flags  # noqa: E402
-
-from soe_jax import cli  # noqa: E402
+from soe_jax import cli
 
 flags.DEFINE_string("workdir", None, "A run directory written by python -m soe_jax.main.")
 flags.DEFINE_integer("round", None, "The round whose policy to steer (default: the last finished).")

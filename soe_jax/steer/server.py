@@ -8,8 +8,7 @@
   POST /api/finish | /api/reset {"seed": s} | /api/save {"round": r}
 
 The state lives in the server, so reloading the page shows the same episode. A bad request gets a
-400 with {"error": message} and changes nothing. Requests are served one at a time on the serving
-thread (the renderer's GL context belongs to the thread that made it).
+400 with {"error": message} and changes nothing. Requests are served one at a time.
 """
 
 from __future__ import annotations

@@ -11,7 +11,6 @@ one raises `SteeringError` without changing anything.
 
 from __future__ import annotations
 
-import io
 import os
 import threading
 
@@ -29,6 +28,7 @@ from soe_jax.explore import registry as strategy_registry
 from soe_jax.explore import steering
 from soe_jax.policies import agent as agent_lib
 from soe_jax.rundir import RunDir
+from soe_jax.steer.frames import Frames
 
 IMAGE_SIZE = 384
 
@@ -58,7 +58,7 @@ class SteeringSession:
     # With no dimension above the threshold: the strongest (the page says it carries little signal).
     self.dims = steering.effective_dims(self.snr, self.steer.threshold_db) or (int(np.argmax(self.snr)),)
     self.image_size = image_size
-    self.renderer = None  # made on first use, on the thread that renders
+    self.frames = None  # the child process that draws, started on first use
     self.data = mujoco.MjData(self.env.mj_model)
     self.saved = 0
     self.last_saved = None  # {"success": bool, "used": bool} of the episode saved last
@@ -66,8 +66,8 @@ class SteeringSession:
     self.reset(seed)
 
   def warm(self) -> None:
-    """Compile the proposal program and render the first frame, so the page's first requests are quick
-    (call it on the thread that will serve: the renderer belongs to it). Changes nothing."""
+    """Compile the proposal program and render the first frame, so the page's first requests are
+    quick. Changes nothing."""
     self._candidates(self.agent, self.hist, self.key, self.dims[0])[0].block_until_ready()
     self.image_png()
 
@@ -166,10 +166,10 @@ class SteeringSession:
     return self.reset(self.seed + 1)
 
   def close(self) -> None:
-    """Free the renderer (on the thread that rendered), before the interpreter tears EGL down."""
-    if self.renderer is not None:
-      self.renderer.close()
-      self.renderer = None
+    """End the process that draws the frames."""
+    if self.frames is not None:
+      self.frames.close()
+      self.frames = None
 
   # -- what the page shows ----------------------------------------------------------------------
   def _camera(self):
@@ -190,16 +190,9 @@ class SteeringSession:
     return [[float(size / 2 + f * x / -z), float(size / 2 - f * y / -z)] for x, y, z in c]
 
   def image_png(self) -> bytes:
-    import matplotlib.image
-
-    self.data.qpos[:] = np.asarray(self.state.pipeline_state.qpos[0])
-    mujoco.mj_forward(self.env.mj_model, self.data)
-    if self.renderer is None:
-      self.renderer = mujoco.Renderer(self.env.mj_model, self.image_size, self.image_size)
-    self.renderer.update_scene(self.data, camera="agentview")
-    buf = io.BytesIO()
-    matplotlib.image.imsave(buf, self.renderer.render(), format="png")
-    return buf.getvalue()
+    if self.frames is None:
+      self.frames = Frames(self.env.mj_model, self.image_size, "agentview")
+    return self.frames.png(self.state.pipeline_state.qpos[0])
 
   def view(self) -> dict:
     props = []
