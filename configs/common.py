@@ -22,11 +22,18 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
 - `expert_data`, beside a method: an oracle arm that explores as the method does and then trains on
   the scripted demonstrator's episodes from the start states the method kept (`method` becomes
   `<method>-expert_data`, `rounds.new_data` `expert`);
+- what an exploring method keeps and how it explores, beside it (each adds to `method`, e.g.
+  `soe,select=shortest_success` is `soe-select_shortest_success`): `select=RULE` (`rounds.select`),
+  `length_cap=X` (`rounds.length_cap`: only successes no longer than X times the demonstrations' mean
+  length), `alpha=X` and `hold=N` (the strategy's exploration scale; `soe`'s decisions per draw of
+  its latent noise);
 - `head=NAME` (diffusion_unet, flow_unet, mlp).
 Single fields are overridden on the command line with `--config.fit.lr=3e-4`.
 """
 
 from __future__ import annotations
+
+import functools
 
 import ml_collections
 
@@ -36,7 +43,14 @@ from soe_jax.explore import registry as strategy_registry
 # the control re-fits without new data.
 EXPLORERS = ("dp", "sime", "soe", "soe_steer")
 METHODS = EXPLORERS + ("control",)
-PRESETS = ("smoke", "cpu", "head", "expert_data") + METHODS
+# Presets that change what an exploring method keeps or how it explores: preset -> (field, method suffix).
+VARIANTS = {
+  "select": ("rounds.select", "select_"),
+  "length_cap": ("rounds.length_cap", "cap"),
+  "alpha": ("explore.strategy.kwargs.alpha", "alpha"),
+  "hold": ("explore.strategy.kwargs.hold", "hold"),
+}
+PRESETS = ("smoke", "cpu", "head", "expert_data") + tuple(VARIANTS) + METHODS
 
 
 def parse_arg(arg: str | None) -> dict:
@@ -113,7 +127,8 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   # Evaluation: the base path from `num_start_states` start states split from `seed`, with the same
   # policy-sampling keys in every round and for every method of a training seed (paired outcomes).
   c.eval = ml_collections.ConfigDict(dict(num_start_states=200, seed=77_777))
-  # Rounds after round 0: select episodes (first_success | all_successes | sime), append, re-fit
+  # Rounds after round 0: select episodes (first_success | shortest_success | all_successes | sime;
+  # length_cap > 0: only successes no longer than length_cap x the demonstrations' mean length), append, re-fit
   # (continue from the previous round's parameters for refit_steps at a peak lr of refit_lr, 0 meaning
   # fit.lr; or scratch), evaluate.
   # refit_ema: a continued re-fit's EMA restarts from the parameters (restart) or goes on (carry).
@@ -123,7 +138,7 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   # control, which explores not at all).
   # round0_dir: where the shared round 0 lives ("" = <workdir>/../round0).
   c.rounds = ml_collections.ConfigDict(
-    dict(num_rounds=3, select="first_success", refit="continue", refit_steps=10_000, refit_lr=0.0,
+    dict(num_rounds=3, select="first_success", length_cap=0.0, refit="continue", refit_steps=10_000, refit_lr=0.0,
          refit_ema="restart", steered="successful", new_data="kept", round0_dir="")
   )  # fmt: skip
   return c
@@ -149,11 +164,31 @@ def apply_presets(
     c.explore.strategy = strategy_config("dp" if methods[0] == "control" else methods[0])
   if methods == ["control"]:
     c.rounds.new_data = "none"  # (its explore.strategy is never used)
+  explorer = c.method in EXPLORERS
   if presets.get("expert_data"):
-    if c.method not in EXPLORERS:
+    if not explorer:
       raise ValueError(f"expert_data goes with an exploring method ({', '.join(EXPLORERS)}), e.g. 'soe,expert_data'")
     c.method = f"{c.method}-expert_data"
     c.rounds.new_data = "expert"
+  for preset, (field, suffix) in VARIANTS.items():
+    if preset not in presets:
+      continue
+    value = presets[preset]
+    if value is True:
+      raise ValueError(f"the preset {preset} needs a value: {preset}=VALUE")
+    if not explorer:
+      raise ValueError(f"{preset}= goes with an exploring method ({', '.join(EXPLORERS)}), e.g. 'soe,{preset}={value}'")
+    *sections, name = field.split(".")
+    section = functools.reduce(getattr, sections, c)
+    if name not in section:
+      raise ValueError(f"{preset}: strategy {c.explore.strategy.name!r} has no setting {name!r}")
+    try:
+      section[name] = type(section[name])(value)
+    except ValueError:
+      raise ValueError(
+        f"{preset}={value}: expected a {type(section[name]).__name__}, e.g. {preset}={section[name]}"
+      ) from None
+    c.method = f"{c.method}-{suffix}{value}"
   steer = c.explore.strategy.kwargs if c.explore.strategy.name == "soe_steer" else None
   head_kwargs = c.policy.head.kwargs
   if presets.get("cpu"):

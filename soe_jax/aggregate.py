@@ -29,8 +29,8 @@ flags.DEFINE_string("out", None, "Output path without extension (default RUNS_DI
 FLAGS = flags.FLAGS
 
 CONTROL = "control"
-# What a method's run and its control may differ in: the arm itself.
-_ARM = ("method", "explore.", "rounds.new_data")
+# What a method's run and its control may differ in: the arm itself (how it explores, what it keeps).
+_ARM = ("method", "explore.", "rounds.new_data", "rounds.select", "rounds.length_cap")
 _NOT_SETTINGS = ("seed", "rounds.round0_dir")
 _PER_SEED = ("pass_at_k", "jerk", "rollouts", "sr_before", "sr_after", "improvement_rel", "seed")
 

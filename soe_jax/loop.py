@@ -30,6 +30,7 @@ import time
 import jax
 import jax.numpy as jnp
 import ml_collections
+import numpy as np
 
 from soe_jax import checkpoint, interrupt, metrics, report, rollout, rundir, runlog, train_state, validation
 from soe_jax import fit as fit_lib
@@ -116,11 +117,19 @@ class Experiment:
     tries = int(c.tries)
     reset_keys = jnp.repeat(jax.random.split(seed, int(c.num_start_states)), tries, axis=0)  # tries adjacent
     out = self.rollout(state, strategy, reset_keys, self.key(r, _EXPLORE), f"round {r} explore ({c.strategy.name})")
-    keep = select_lib.select(out["success"].reshape(-1, tries), self.config.rounds.select).reshape(-1)
+    max_length = None
+    if cap := float(self.config.rounds.length_cap):  # a multiple of the demonstrations' mean length
+      max_length = cap * np.mean([len(d["actions"]) for d in self.run.demonstrations()])
+    shape = (-1, tries)
+    keep = select_lib.select(
+      out["success"].reshape(shape), out["length"].reshape(shape), self.config.rounds.select, max_length
+    ).reshape(-1)
     rec = dict(
       metrics.rollout_summary(out, tries, state.normalizer),
       strategy=c.strategy.name,
       num_episodes=int(keep.sum()),
+      kept_length_mean=float(out["length"][keep].mean()) if keep.any() else None,
+      max_kept_length=max_length,
       success=out["success"].astype(int).tolist(),
       **extra,
     )

@@ -9,7 +9,9 @@ is `vmap`ped through the task, so the MJX backend vectorises it and the C-engine
 together; the engine does not care which, nor which strategy runs.
 
 Randomness: environment i starts from `reset_keys[i]`; the strategy's key at decision j of slice s is
-fold_in(fold_in(key, s), j). The same keys and slice size give the same rollouts.
+fold_in(fold_in(key, s), j), and it may read the slice's key fold_in(key, s) (noise held over several
+decisions) from the state's `info["slice_key"]`, the control step from `info["steps"]`. The same keys
+and slice size give the same rollouts.
 
 Output (numpy, in the buffer's format): `obs` (N, H, D) raw policy observations before each action,
 `actions` (N, H, A), `eef_pos` (N, H + 1, 3) measured end-effector positions from the start,
@@ -75,7 +77,12 @@ def decisions_fn(env: manipulation.ManipulationEnv, strategy: Strategy, n_action
       return c, record
 
     def decision(c: RolloutCarry, _):
-      state_t = c.state.replace(info=dict(c.state.info, steps=jnp.full(c.done.shape, c.t)))
+      # What a strategy may read beside the state: the control step, and the slice's key (for noise
+      # held over several decisions).
+      info = dict(
+        c.state.info, steps=jnp.full(c.done.shape, c.t), slice_key=jnp.broadcast_to(key, c.done.shape + key.shape)
+      )
+      state_t = c.state.replace(info=info)
       actions, aux = strategy(agent, c.obs_history, state_t, jax.random.fold_in(key, c.t // ta))
       c, records = jax.lax.scan(control, c, actions.swapaxes(0, 1))
       return c, (records, aux)

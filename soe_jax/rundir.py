@@ -47,7 +47,10 @@ ADDED = {
   "fit.eval_states": 50,
   "policy.bypass.batch_fraction": 1.0,
   "rounds.new_data": "kept",
+  "rounds.length_cap": 0.0,
 }
+# Strategy settings added since, likewise: strategy -> {setting: the value that does what its absence did}.
+ADDED_SETTINGS = {"soe": {"hold": 1}}
 # Fields of configs saved before they moved: old name -> new name ("a.b." is a whole section).
 RENAMED = {
   "env.horizon": "env.episode_length",
@@ -90,7 +93,8 @@ def config_diff(saved: dict, current: dict) -> list[str]:
 
 
 def with_added(saved: dict) -> dict:
-  """`saved` with the `ADDED` fields it lacks set to their old behaviour's values."""
+  """`saved` with the `ADDED` fields (and its strategy's `ADDED_SETTINGS`) it lacks set to their old
+  behaviour's values."""
   saved = json.loads(json.dumps(saved))
   for field, value in ADDED.items():
     *sections, name = field.split(".")
@@ -98,6 +102,10 @@ def with_added(saved: dict) -> dict:
     for part in sections:
       d = d.setdefault(part, {})
     d.setdefault(name, value)
+  strategy = saved.get("explore", {}).get("strategy", {})
+  if isinstance(strategy, dict):
+    for name, value in ADDED_SETTINGS.get(strategy.get("name"), {}).items():
+      strategy.setdefault("kwargs", {}).setdefault(name, value)
   return saved
 
 

@@ -190,15 +190,31 @@ def test_method_presets_choose_the_strategy():
     config = lift_config.get_config(f"cpu,{method}")
     assert config.method == config.explore.strategy.name == method
   assert lift_config.get_config("cpu,soe_steer").explore.strategy.kwargs.every == 4
-  assert lift_config.get_config("smoke,soe").explore.strategy.kwargs.to_dict() == {"alpha": 2.0}
+  assert lift_config.get_config("smoke,soe").explore.strategy.kwargs.to_dict() == {"alpha": 2.0, "hold": 1}
   with pytest.raises(ValueError, match="choose one method preset"):
     lift_config.get_config("soe,dp")
   with pytest.raises(
-    ValueError, match="known presets: smoke, cpu, head, expert_data, dp, sime, soe, soe_steer, control"
+    ValueError, match="known presets: smoke, cpu, head, expert_data, select, length_cap, alpha, hold, dp, sime,"
   ):
     lift_config.get_config("fast")
   with pytest.raises(ValueError, match="expert_data goes with an exploring method"):
     lift_config.get_config("control,expert_data")
+
+
+def test_variant_presets_set_their_field_and_name_the_method():
+  c = lift_config.get_config("cpu,soe,select=shortest_success,length_cap=1.5,hold=4,alpha=1")
+  assert c.method == "soe-select_shortest_success-cap1.5-alpha1-hold4"
+  assert (c.rounds.select, c.rounds.length_cap) == ("shortest_success", 1.5)
+  assert c.explore.strategy.kwargs.to_dict() == {"alpha": 1.0, "hold": 4}
+  assert lift_config.get_config("sime,select=sime,expert_data").method == "sime-expert_data-select_sime"
+  for presets, message in [
+    ("control,select=sime", "goes with an exploring method"),
+    ("soe,alpha", "needs a value: alpha=VALUE"),
+    ("dp,hold=2", "strategy 'dp' has no setting 'hold'"),
+    ("soe,hold=two", "hold=two: expected a int, e.g. hold=1"),
+  ]:
+    with pytest.raises(ValueError, match=message):
+      lift_config.get_config(presets)
 
 
 def test_the_cpu_preset_takes_the_tasks_own_demonstrations_and_steps():
@@ -331,6 +347,9 @@ def test_a_workdir_saved_before_fields_were_added_reads_them_as_their_old_behavi
   (tmp_path / "config.json").write_text(json.dumps(saved))
   rundir.check_config(str(tmp_path), config)  # accepted as it is
   assert rundir.load_config(str(tmp_path)).rounds.steered == "successful"
+  del saved["explore"]["strategy"]["kwargs"]["hold"]  # soe's settings: likewise
+  (tmp_path / "config.json").write_text(json.dumps(saved))
+  assert rundir.load_config(str(tmp_path)).explore.strategy.kwargs.hold == 1
   config.rounds.steered = "all"  # a different value is still a different config
   with pytest.raises(ValueError, match="rounds.steered: 'successful' -> 'all'"):
     rundir.check_config(str(tmp_path), config)

@@ -57,12 +57,24 @@ def test_episode_selection_rules():
   from soe_jax.explore.select import select
 
   s = np.array([[0, 1, 1, 0, 0], [0, 0, 0, 0, 0], [1, 1, 1, 1, 0], [1, 0, 0, 0, 1]], bool)
-  np.testing.assert_array_equal(select(s), [[0, 1, 0, 0, 0], [0] * 5, [1, 0, 0, 0, 0], [1, 0, 0, 0, 0]])
-  np.testing.assert_array_equal(select(s, "all_successes"), s)
+  length = np.array([[9, 50, 30, 9, 9], [9] * 5, [40, 20, 20, 60, 5], [70, 9, 9, 9, 45]])
+  np.testing.assert_array_equal(select(s, length), [[0, 1, 0, 0, 0], [0] * 5, [1, 0, 0, 0, 0], [1, 0, 0, 0, 0]])
+  # the shortest success, the first of equal ones; a failure's length does not count
+  np.testing.assert_array_equal(
+    select(s, length, "shortest_success"), [[0, 0, 1, 0, 0], [0] * 5, [0, 1, 0, 0, 0], [0, 0, 0, 0, 1]]
+  )
+  np.testing.assert_array_equal(select(s, length, "all_successes"), s)
   # SIME's train_0.5: states with success rate 0.4 (rows 0 and 3) keep all their successes; 0.8 drops.
-  np.testing.assert_array_equal(select(s, "sime"), [[0, 1, 1, 0, 0], [0] * 5, [0] * 5, [1, 0, 0, 0, 1]])
-  with pytest.raises(ValueError, match="known selections: all_successes, first_success, sime"):
-    select(s, "best")
+  np.testing.assert_array_equal(select(s, length, "sime"), [[0, 1, 1, 0, 0], [0] * 5, [0] * 5, [1, 0, 0, 0, 1]])
+  # a cap of 45 actions: longer successes count as failures (row 2 falls to 0.6, row 3 to 0.2)
+  np.testing.assert_array_equal(
+    select(s, length, "first_success", max_length=45), [[0, 0, 1, 0, 0], [0] * 5, [1, 0, 0, 0, 0], [0, 0, 0, 0, 1]]
+  )
+  np.testing.assert_array_equal(
+    select(s, length, "sime", max_length=45), [[0, 0, 1, 0, 0], [0] * 5, [0] * 5, [0, 0, 0, 0, 1]]
+  )
+  with pytest.raises(ValueError, match="known selections: all_successes, first_success, shortest_success, sime"):
+    select(s, length, "best")
 
 
 def test_paired_comparison_counts_gains_and_losses_with_mcnemars_exact_p():

@@ -42,9 +42,11 @@ class Agent:
     """Raw executed actions (B, Ta, A) from the base path."""
     return self.executed(self.chunk(obs_history, key, cond_fn))
 
-  def explore_chunk(self, obs_history: jax.Array, key: jax.Array, alpha) -> tuple[jax.Array, jax.Array]:
-    """Raw (B, T, A) from the exploration path with z ~ N(mu, (alpha sigma)^2), and z (B, d)."""
-    actions, z = self.policy.sample_explore(self.params, self.normalizer.normalize_obs(obs_history), key, alpha)
+  def explore_chunk(self, obs_history: jax.Array, key: jax.Array, alpha, noise_key=None) -> tuple[jax.Array, jax.Array]:
+    """Raw (B, T, A) from the exploration path with z ~ N(mu, (alpha sigma)^2), and z (B, d); the
+    latent's noise from `noise_key` if given (else from `key`)."""
+    obs = self.normalizer.normalize_obs(obs_history)
+    actions, z = self.policy.sample_explore(self.params, obs, key, alpha, noise_key)
     return self.normalizer.unnormalize_actions(actions), z
 
   def latent(self, obs_history: jax.Array) -> tuple[jax.Array, jax.Array]:

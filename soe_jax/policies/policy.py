@@ -91,9 +91,11 @@ class Policy:
     actions, _ = self.head.sample(params["head"], self.encode(params, obs), key, cond_fn)
     return actions
 
-  def sample_explore(self, params, obs, key, alpha: float | jax.Array):
-    """Exploration path with z ~ N(mu, (alpha sigma)^2) -> (actions (B, T, A), z (B, d))."""
+  def sample_explore(self, params, obs, key, alpha: float | jax.Array, noise_key=None):
+    """Exploration path with z ~ N(mu, (alpha sigma)^2) -> (actions (B, T, A), z (B, d)); z's noise
+    from `noise_key` if given (else from `key`, which always draws the head's)."""
     key_z, key_head = jax.random.split(key)
+    key_z = key_z if noise_key is None else noise_key
     mu, log_std = self.latent(params, self.encode(params, obs))
     z = mu + alpha * jnp.exp(log_std) * jax.random.normal(key_z, mu.shape)
     actions, _ = self.head.sample(params["head"], self.decode_latent(params, z), key_head)

@@ -91,6 +91,30 @@ def test_soe_alpha_zero_is_the_mean_path_and_alpha_spreads():
   assert 0 < spread[0] < spread[1] < spread[2]
 
 
+def test_soe_hold_keeps_the_latent_noise_for_that_many_decisions():
+  policy = _policy()
+  agent = _agent(policy)
+  obs = jax.random.uniform(jax.random.PRNGKey(3), (4, 2, OBS_DIM), minval=0, maxval=2)
+  slice_key = jax.random.PRNGKey(5)
+  state = lambda step: type("S", (), {"info": {"steps": jnp.full(4, step), "slice_key": jnp.stack([slice_key] * 4)}})()
+  mu, log_std = agent.latent(obs)
+
+  def noise(strategy, decision):  # eps = (z - mu) / (alpha sigma), with the rollout's key of that decision
+    _, aux = strategy(agent, obs, state(8 * decision), jax.random.fold_in(slice_key, decision))
+    return np.asarray((aux["z"] - mu) / (strategy.alpha * jnp.exp(log_std)))
+
+  held = registry.make_strategy("soe", hold=3)
+  eps = [noise(held, j) for j in range(6)]
+  for j in (1, 2, 4, 5):  # decisions 0-2 share one draw, 3-5 the next
+    np.testing.assert_allclose(eps[j], eps[3 * (j // 3)], atol=1e-4)
+  assert np.abs(eps[3] - eps[0]).min() > 1e-3  # a fresh draw for every environment
+  assert np.abs(eps[0][1:] - eps[0][:1]).min() > 1e-3  # each environment its own noise
+  fresh = registry.make_strategy("soe")  # hold 1: a new draw every decision, as before holding existed
+  assert np.abs(noise(fresh, 1) - noise(fresh, 0)).min() > 1e-3
+  with pytest.raises(ValueError, match="at least 1"):
+    registry.make_strategy("soe", hold=0)
+
+
 def test_dp_and_sime_use_the_base_path():
   policy = _policy()
   agent = _agent(policy)
