@@ -32,7 +32,7 @@ CONTROL = "control"
 # What a method's run and its control may differ in: the arm itself (how it explores, what it keeps).
 _ARM = ("method", "explore.", "rounds.new_data", "rounds.select", "rounds.length_cap")
 _NOT_SETTINGS = ("seed", "rounds.round0_dir")
-_PER_SEED = ("pass_at_k", "jerk", "rollouts", "sr_before", "sr_after", "improvement_rel", "seed")
+_PER_SEED = ("pass_at_k", "jerk", "rollouts", "kept", "kept_length", "sr_before", "sr_after", "improvement_rel", "seed")
 
 
 def find_runs(root: str) -> list[str]:
@@ -107,6 +107,8 @@ HEADER = [
   "pass_at_k",
   "jerk",
   "rollouts",
+  "kept",
+  "kept_length",
   "sr_before",
   "sr_after",
   "sr_after_episodes",
@@ -172,6 +174,8 @@ def rows(workdirs: list[str]) -> list[dict]:
         pass_at_k=_mean_std([r.get("pass_at_k") for r in group]),
         jerk=_mean_std([r.get("jerk") for r in group]),
         rollouts=_mean_std([r.get("rollouts") for r in group]),
+        kept=_mean_std([r.get("kept") for r in group]),
+        kept_length=_mean_std([r.get("kept_length") for r in group]),
         sr_before=_mean_std([r.get("sr_before") for r in group]),
         sr_after=_mean_std([r.get("sr_after") for r in group]),
         sr_after_episodes=n,

@@ -78,6 +78,8 @@ def _summarize(workdir: str) -> tuple[dict, dict]:
       jerk=first["jerk"],
       rollouts=first["rollouts"],
       rollouts_mean=first["rollouts_mean"],
+      kept=first["num_episodes"],  # the episodes the round added to the data
+      kept_length=first.get("kept_length_mean"),  # (recorded since the length cap exists)
     )
   if before is not None and after is not None:
     imp = metrics.relative_improvement(before["success_rate"], after["success_rate"])

@@ -125,22 +125,26 @@ def _spread(xs, scale: float = 100, unit: str = "%", sign: str = "") -> str:
 
 def campaign_table(rows: list[dict]) -> str:
   """A campaign's runs (`aggregate.rows`): the paper's Table I columns, mean ± standard deviation over
-  training seeds (Pass@k, jerk and rollouts of the first exploration round; success on the evaluation
+  training seeds (Pass@k, jerk, rollouts and the episodes kept, with their mean length where recorded,
+  of the first exploration round; success on the evaluation
   states before and after, after also pooled over seeds with its Wilson interval and episode count),
   and each method's last round against its round 0 and against the control of each seed, paired
   state by state (mean difference ± std over seeds; states gained / lost over all seeds; the CMH
   p-value over (seed, state) pairs)."""
-  md = ["| task | method | seeds | Pass@5 | avg. jerk (m/s^3) | rollouts | success before | success after "
-        "(pooled [95% CI], episodes) | relative improvement | vs round 0: difference, gained / lost, p | "
-        "vs control: difference, gained / lost, p |",
-        "|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+  md = ["| task | method | seeds | Pass@5 | avg. jerk (m/s^3) | rollouts | kept (mean length) | success before | "
+        "success after (pooled [95% CI], episodes) | relative improvement | vs round 0: difference, gained / "
+        "lost, p | vs control: difference, gained / lost, p |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
   for r in rows:
     v = r["per_seed"]
     k, n, lo, hi = r["sr_after_pooled"]
     pooled = f"{_spread(v['sr_after'])} ({_pct(k / n)} [{_pct(lo)}, {_pct(hi)}], n={n})" if n else "-"
+    kept = _spread(v["kept"], 1, "")
+    if kept != "-" and (length := _spread(v["kept_length"], 1, "")) != "-":
+      kept += f" ({length} steps)"
     md.append(
       f"| {r['task']} | {r['method']}{r['variant'] and ' (' + r['variant'] + ')'} | {r['seeds']} | "
-      f"{_spread(v['pass_at_k'])} | {_spread(v['jerk'], 1, '')} | {_spread(v['rollouts'], 1, '')} | "
+      f"{_spread(v['pass_at_k'])} | {_spread(v['jerk'], 1, '')} | {_spread(v['rollouts'], 1, '')} | {kept} | "
       f"{_spread(v['sr_before'])} | {pooled} | {_spread(v['improvement_rel'], sign='+')} | {r['vs_round0']} | "
       f"{r['vs_control']} |"
     )

@@ -79,7 +79,8 @@ def _fake_run(path, method, seed, before, after, explored=(), jerk=3.0):
     lines.append(dict(round=r, phase="evaluate", success_rate=rate, num_rollouts=len(outcomes), wilson_low=0.0,
                       wilson_high=1.0, time_total_s=1.0))  # fmt: skip
   if method != "control":
-    lines.insert(1, dict(round=1, phase="explore", pass_at_k=0.5, k=2, jerk=jerk, rollouts=3, rollouts_mean=1.5))
+    lines.insert(1, dict(round=1, phase="explore", pass_at_k=0.5, k=2, jerk=jerk, rollouts=3, rollouts_mean=1.5,
+                         num_episodes=2, kept_length_mean=40.0))  # fmt: skip
   with open(os.path.join(path, "metrics.jsonl"), "w") as f:
     f.writelines(json.dumps(m) + "\n" for m in lines)
   explore = {"1": [t for state in explored for t in state]} if explored else {}
@@ -104,10 +105,17 @@ def test_aggregate_pairs_each_method_with_its_round0_and_the_control_of_its_seed
   md, _ = aggregate.aggregate(aggregate.find_runs(str(tmp_path)))
   assert md.splitlines()[-1].startswith("| lift | control |")  # the control's row last
   table = results.table(str(tmp_path)).splitlines()  # the folder's runs -> the paper's columns
-  assert table[2] == ("| lift | soe | 2 | 50.0 ± 0.0% | 3.0 ± 0.0 | 3.0 ± 0.0 | 37.5 ± 17.7% | 75.0 ± 0.0% (75.0% "
+  assert table[2] == ("| lift | soe | 2 | 50.0 ± 0.0% | 3.0 ± 0.0 | 3.0 ± 0.0 | 2.0 ± 0.0 (40.0 ± 0.0 steps) | "
+                      "37.5 ± 17.7% | 75.0 ± 0.0% (75.0% "
                       "[40.9%, 92.9%], n=8) | +125.0 ± 106.1% | +37.5 ± 17.7 pts, 4 / 1, p=0.18 | "
                       "+37.5 ± 17.7 pts, 4 / 1, p=0.18 |")  # fmt: skip
-  assert table[3].startswith("| lift | control | 2 | - | - | - | 37.5 ± 17.7% |") and table[3].endswith("| - |")
+  assert table[3].startswith("| lift | control | 2 | - | - | - | - | 37.5 ± 17.7% |") and table[3].endswith("| - |")
+  # An arm that keeps other episodes (a selection rule, a length cap) is paired with the same control.
+  _fake_run(tmp_path / "s0" / "short", "soe,select=shortest_success,length_cap=1.5", 0, base[0], [1, 1, 0, 1])
+  short = {r["method"]: r for r in aggregate.rows(aggregate.find_runs(str(tmp_path)))}[
+    "soe-select_shortest_success-cap1.5"
+  ]
+  assert short["comparisons"]["control"]["gained"] == 2 and short["comparisons"]["control"]["lost"] == 0
   # A method without a control of its seed and settings has no such comparison.
   _fake_run(tmp_path / "s2" / "dp", "dp", 2, base[0], base[0])
   assert {r["method"]: r for r in aggregate.rows(aggregate.find_runs(str(tmp_path)))}["dp"]["vs_control"] == "-"
