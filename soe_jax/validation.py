@@ -31,6 +31,7 @@ NON_NEGATIVE = (
   "fit.checkpoint_every",
   "fit.eval_every",
   "rounds.refit_lr",
+  "rounds.length_cap",
 )
 
 

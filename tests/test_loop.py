@@ -237,6 +237,7 @@ def test_a_rejected_config_writes_nothing(tmp_path):
     ("rounds.select", "best", "known selections: all_successes, first_success"),
     ("rounds.refit", "warm", "known: continue, scratch"),
     ("rounds.refit_lr", -1e-4, r"rounds.refit_lr must be >= 0"),
+    ("rounds.length_cap", -1.5, r"rounds.length_cap must be >= 0"),
     ("rounds.steered", "some", "known: successful, all"),
     ("rounds.refit_ema", "keep", "known: restart, carry"),
     ("policy.bypass.batch_fraction", 0.0, r"batch_fraction must be in \(0, 1\]"),
