@@ -23,6 +23,9 @@ def _mapping_limit() -> int | None:
     return None
 
 
+_MAPPING_LIMIT = _mapping_limit()
+
+
 @pytest.fixture(autouse=True)
 def _release_compiled_programs():
   """Free the compiled programs once they hold too many memory mappings. XLA maps each CPU
@@ -31,7 +34,7 @@ def _release_compiled_programs():
   where the next compile crashes the process. Past 40% of the limit, the programs are dropped after
   the test (those used again recompile, from the persistent cache)."""
   yield
-  limit = _mapping_limit()
+  limit = _MAPPING_LIMIT
   if limit and _mappings() > 0.4 * limit:
     jax.clear_caches()
     assert _mappings() < 0.4 * limit, f"{_mappings()} memory mappings after clearing, of at most {limit}"
