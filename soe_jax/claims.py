@@ -98,6 +98,8 @@ def rollouts_claim(m: dict) -> str:
   parts, ok = [], True
   for name, other in others:
     pairs = _seed_pairs(soe, other, _rollouts)
+    if not pairs:
+      return "Rollouts (SOE fewest): not measured (no per-state exploration outcomes)."
     t = sign_test(np.concatenate([x for _, x in pairs]), np.concatenate([y for y, _ in pairs]))
     ok &= t["fewer"] > t["more"] and t["p_value"] < ALPHA
     parts.append(f"fewer than {name} on {t['fewer']} start states, more on {t['more']} (p = {t['p_value']:.2g})")

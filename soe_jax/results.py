@@ -1,7 +1,7 @@
 """Tables from committed results: `results/<study>/*.json`, one record per measured run.
 
   python -m soe_jax.results results/clean_inputs
-  python -m soe_jax.results --docs     # every generated table in README.md and BENCHMARKS.md
+  python -m soe_jax.results --docs     # every generated table and figure in README.md and BENCHMARKS.md
 
 A record holds the command, the commit, the machine, the config, and the phase records of what it
 measured (`fit`, `evaluate` with the per-state outcomes). The table has a row per record, in file
@@ -10,10 +10,13 @@ lost, McNemar's exact p-value). Records of `python -m soe_jax.bench converge` (w
 the convergence table instead: a row per fitting recipe; records of `python -m soe_jax.bench latent`
 (with a `latent`) the latent table: effective dimensions and exploration, paired episode by episode
 with the first record's. A folder of runs a campaign exported (`python -m soe_jax.campaign`) gets the
-comparison of methods (`campaign_table`) and the paper's claims tested on it (`soe_jax.claims`).
+comparison of methods (`campaign_table`) and the paper's claims tested on it (`soe_jax.claims`), and
+where its runs have several rounds the table of rounds and the claim of monotonic improvement
+(`soe_jax.over_rounds`).
 
 In README.md and BENCHMARKS.md a generated table sits between `<!-- table: RESULTS_DIR -->` and
 `<!-- /table -->`; `--docs` rewrites each from its folder, and a test checks that they are current.
+`--docs` also draws each figure of rounds named by a line `<!-- figure: RESULTS_DIR PATH.png -->`.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ import re
 import numpy as np
 from absl import app, flags
 
-from soe_jax import cli, metrics, runlog
+from soe_jax import cli, metrics, over_rounds, runlog
 
 flags.DEFINE_bool("docs", False, "Regenerate every table in README.md and BENCHMARKS.md from its results folder.")
 FLAGS = flags.FLAGS
@@ -43,7 +46,8 @@ def table(study: str) -> str:
 
     if runs := aggregate.find_runs(study):
       rows = aggregate.rows(runs)
-      return campaign_table(rows) + "\n" + campaign_claims(rows)
+      md = campaign_table(rows) + "\n" + campaign_claims(rows)
+      return md + ("\n" + over_rounds.table(rows) if over_rounds.multi_round(rows) else "")
     raise FileNotFoundError(f"no result records (*.json) or exported runs in {study!r}")
   records = [(os.path.basename(p)[:-5], json.load(open(p))) for p in paths]
   if all("check" in r for _, r in records):
@@ -158,11 +162,15 @@ def campaign_claims(rows: list[dict]) -> str:
   lines = []
   for task in sorted({r["task"] for r in rows}):
     lines += [f"- {task}: {c}" for c in claims.claims(rows, task) if ": not measured" not in c]
+    if (c := over_rounds.claim(rows, task)) is not None:
+      lines.append(f"- {task}: {c}")
   return "\n".join(lines) + "\n"
 
 
 # A generated table in README.md or BENCHMARKS.md: between these lines, naming its results folder.
 _BEGIN = re.compile(r"^<!-- table: (\S+) -->$")
+# A generated figure of rounds (`over_rounds.figure`): this line names its results folder and its file.
+_FIGURE = re.compile(r"^<!-- figure: (\S+) (\S+) -->$")
 _END = "<!-- /table -->"
 DOCS = ("README.md", "BENCHMARKS.md")
 
@@ -182,6 +190,21 @@ def regenerate(text: str) -> str:
   return "".join(out)
 
 
+def figures(text: str) -> list[str]:
+  """Draw every figure of rounds that `text` names (`<!-- figure: RESULTS_DIR PATH -->`); their paths."""
+  from soe_jax import aggregate
+
+  drawn = []
+  for line in text.splitlines():
+    if m := _FIGURE.match(line):
+      runs = aggregate.find_runs(m.group(1))
+      if not runs:
+        raise FileNotFoundError(f"{line.strip()}: no exported runs in {m.group(1)!r}")
+      over_rounds.figure(aggregate.rows(runs), m.group(2))
+      drawn.append(m.group(2))
+  return drawn
+
+
 def main(argv):
   if FLAGS.docs:
     if len(argv) != 1:
@@ -193,6 +216,8 @@ def main(argv):
         with open(path, "w") as f:
           f.write(new)
       print(f"{path}: {'rewritten' if new != old else 'up to date'}")
+      for figure in figures(new):
+        print(f"{path}: drew {figure}")
     return
   if len(argv) != 2:
     raise app.UsageError("usage: python -m soe_jax.results RESULTS_DIR | --docs")
