@@ -53,7 +53,9 @@ def table(study: str) -> str:
   if all("check" in r for _, r in records):
     return convergence_table(records)
   if all("latent" in r for _, r in records):
-    return latent_table(records)
+    groups = {_task_and_size(r["config"]) + (r["config"].get("seed"),) for _, r in records}
+    summary = "\n" + effective_dims_table(records) if len(groups) > 1 else ""  # tasks, sizes or seeds
+    return latent_table(records) + summary
   first = records[0][1]["evaluate"]["success"]
   md = ["| record | inputs | commit | fit (compile) | final loss | success | obs. features out of range | vs first: gained / lost (p) |",
         "|---|---|---|---|---|---|---|---|"]  # fmt: skip
@@ -115,6 +117,30 @@ def latent_table(records: list[tuple[str, dict]]) -> str:
       f"{_pct(ex['wilson_high'])}] (n={ex['num_rollouts']}) | {_pct(ex['pass_at_k'])} (k={ex['k']}) | {ex['jerk']:.1f} "
       f"| {c['gained']} / {c['lost']} (p={c['p_value']:.3f}) |"
     )
+  return "\n".join(md) + "\n"
+
+
+# The paper's effective dimensions per task (SNR above 0 dB over the round-0 data).
+PAPER_EFFECTIVE_DIMS = {"lift": 8, "can": 8, "square": 10, "transport": 16}
+
+
+def _task_and_size(config: dict) -> tuple[str, int | None]:
+  return config.get("env", {}).get("task", "-"), config["policy"]["bypass"].get("latent_dim")
+
+
+def effective_dims_table(records: list[tuple[str, dict]]) -> str:
+  """Latent records of several tasks, latent sizes or seeds: per task and latent size d, the number of
+  effective dimensions per training seed, their mean ± std, and the paper's number."""
+  groups: dict[tuple, dict] = {}
+  for _, r in records:
+    groups.setdefault(_task_and_size(r["config"]), {})[r["config"].get("seed")] = len(r["latent"]["effective_dims"])
+  md = ["| task | latent size d | seeds | effective dimensions (SNR > 0 dB) per seed | mean ± std | paper |",
+        "|---|---|---|---|---|---|"]  # fmt: skip
+  for (task, d), per_seed in sorted(groups.items()):
+    n = [per_seed[k] for k in sorted(per_seed)]
+    spread = f"{np.mean(n):.1f} ± {np.std(n, ddof=1):.1f}" if len(n) > 1 else f"{n[0]}"
+    seeds = ", ".join(f"seed {k}: {per_seed[k]}" for k in sorted(per_seed))
+    md.append(f"| {task} | {d} | {len(n)} | {seeds} | {spread} | {PAPER_EFFECTIVE_DIMS.get(task, '-')} |")
   return "\n".join(md) + "\n"
 
 

@@ -53,7 +53,28 @@ def test_latent_records_get_effective_dimensions_and_exploration_paired_with_the
   rows = results.table(str(tmp_path)).splitlines()[2:]
   assert rows[0].startswith("| 01 | - | abc | 2 [2, 0] | 5.0 dB | 50.0%") and rows[0].endswith("| 0 / 0 (p=1.000) |")
   assert rows[1].startswith("| 02 | policy.bypass.batch_fraction=0.25 | abc | 1 [1] | 1.0 dB | 75.0%")
-  assert rows[1].endswith("| 2 / 1 (p=1.000) |")
+  assert rows[1].endswith("| 2 / 1 (p=1.000) |") and len(rows) == 2  # one task, size and seed: no summary
+
+
+def test_latent_records_of_tasks_sizes_and_seeds_get_their_effective_dimensions_beside_the_papers(tmp_path):
+  def record(task, d, seed, snr):
+    ex = dict(success=[1, 0], success_rate=0.5, wilson_low=0.1, wilson_high=0.9, num_rollouts=2, pass_at_k=0.5, k=2,
+              jerk=3.0)  # fmt: skip
+    config = dict(env=dict(task=task), seed=seed, policy=dict(bypass=dict(latent_dim=d, batch_fraction=1.0)))
+    dims = [i for i in range(len(snr)) if snr[i] > 0]
+    return dict(commit="abc", config=config, latent=dict(snr_db=snr, effective_dims=dims), explore=ex)
+
+  for name, args in {
+    "a": ("lift", 16, 0, [1, 1, -1]),
+    "b": ("lift", 16, 1, [1, -1, -1]),
+    "c": ("can", 32, 0, [1, 2, 3]),
+  }.items():
+    (tmp_path / f"{name}.json").write_text(json.dumps(record(*args)))
+  summary = results.table(str(tmp_path)).split("\n\n")[1].splitlines()
+  assert summary[2:] == [
+    "| can | 32 | 1 | seed 0: 3 | 3 | 8 |",
+    "| lift | 16 | 2 | seed 0: 2, seed 1: 1 | 1.5 ± 0.7 | 8 |",
+  ]
 
 
 def test_generated_tables_are_rewritten_between_their_markers(tmp_path, monkeypatch):
