@@ -9,10 +9,10 @@ order, and compares each row with the first on the same evaluation start states 
 lost, McNemar's exact p-value). Records of `python -m soe_jax.bench converge` (with a `check`) get
 the convergence table instead: a row per fitting recipe; records of `python -m soe_jax.bench latent`
 (with a `latent`) the latent table: effective dimensions and exploration, paired episode by episode
-with the first record's. A folder of runs a campaign exported (`python -m soe_jax.campaign`) gets the
-comparison of methods (`campaign_table`) and the paper's claims tested on it (`soe_jax.claims`), and
-where its runs have several rounds the table of rounds and the claim of monotonic improvement
-(`soe_jax.over_rounds`).
+with the first record's; records of `python -m soe_jax.kept` (with `runs`) the kept episodes' table.
+A folder of runs a campaign exported (`python -m soe_jax.campaign`) gets the comparison of methods
+(`campaign_table`) and the paper's claims tested on it (`soe_jax.claims`), and where its runs have
+several rounds the table of rounds and the claim of monotonic improvement (`soe_jax.over_rounds`).
 
 In README.md and BENCHMARKS.md a generated table sits between `<!-- table: RESULTS_DIR -->` and
 `<!-- /table -->`; `--docs` rewrites each from its folder, and a test checks that they are current.
@@ -50,6 +50,10 @@ def table(study: str) -> str:
       return md + ("\n" + over_rounds.table(rows) if over_rounds.multi_round(rows) else "")
     raise FileNotFoundError(f"no result records (*.json) or exported runs in {study!r}")
   records = [(os.path.basename(p)[:-5], json.load(open(p))) for p in paths]
+  if all("runs" in r for _, r in records):  # python -m soe_jax.kept
+    from soe_jax import kept
+
+    return kept.table([run for _, r in records for run in r["runs"]])
   if all("check" in r for _, r in records):
     return convergence_table(records)
   if all("latent" in r for _, r in records):
