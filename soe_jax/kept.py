@@ -19,6 +19,7 @@ the runs' configs are in their workdirs) for `results/`, where `python -m soe_ja
 
 from __future__ import annotations
 
+import json
 import os
 
 import numpy as np
@@ -51,12 +52,12 @@ def episode_measures(ep: dict, n_action_steps: int, quat_slice: slice) -> dict:
   tilt = np.degrees(np.arccos(np.clip(up @ up[0], -1.0, 1.0)))
   closed = actions[:, -1] > 0
   grasps = int(closed[0]) + int((closed[1:] & ~closed[:-1]).sum())
-  mean = lambda x: float(x.mean()) if len(x) else float("nan")
+  mean = lambda x: round(float(x.mean()), 2) if len(x) else None  # (None: JSON has no NaN)
   return dict(
     length=len(actions),
     step_boundary_mm=mean(steps[boundary]),
     step_inside_mm=mean(steps[~boundary]),
-    tilt_deg=float(tilt.max()),
+    tilt_deg=round(float(tilt.max()), 2),
     grasps=grasps,
   )
 
@@ -107,8 +108,8 @@ def pooled(per_episode: dict) -> dict:
   return dict(
     episodes=len(tilt),
     length=float(np.mean(per_episode["length"])),
-    step_boundary_mm=float(np.nanmean(per_episode["step_boundary_mm"])),
-    step_inside_mm=float(np.nanmean(per_episode["step_inside_mm"])),
+    step_boundary_mm=float(np.nanmean(np.asarray(per_episode["step_boundary_mm"], float))),
+    step_inside_mm=float(np.nanmean(np.asarray(per_episode["step_inside_mm"], float))),
     tipped=int((tilt > TIPPED_DEG).sum()),
     regrasped=int((grasps > 1).sum()),
   )
@@ -141,7 +142,7 @@ def table(runs: list[dict]) -> str:
 
 
 def main(argv):
-  from soe_jax import provenance, rundir
+  from soe_jax import provenance
 
   if len(argv) < 2:
     raise app.UsageError("usage: python -m soe_jax.kept RUN_DIR [RUN_DIR ...] [--round=1] [--out=FILE.json]")
@@ -149,7 +150,9 @@ def main(argv):
   print(table(record["runs"]), end="")
   if FLAGS.out:
     os.makedirs(os.path.dirname(FLAGS.out) or ".", exist_ok=True)
-    rundir.write_json(FLAGS.out, record)
+    with open(FLAGS.out, "w") as f:  # a line per run: the per-episode lists stay on it
+      f.write("{\n" + ",\n".join(f"{json.dumps(k)}: {json.dumps(v)}" for k, v in record.items() if k != "runs"))
+      f.write(',\n"runs": [\n' + ",\n".join(json.dumps(r) for r in record["runs"]) + "\n]}\n")
     print(f"-> {FLAGS.out}")
 
 
