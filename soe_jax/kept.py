@@ -27,9 +27,15 @@ from absl import app, flags
 
 from soe_jax import cli
 
-flags.DEFINE_integer("round", 1, "The exploration round whose kept episodes are measured.")
-flags.DEFINE_string("out", None, "Also write the record (for results/) here.")
 FLAGS = flags.FLAGS
+
+
+def define_flags() -> None:
+  """The command's flags, defined only when it runs (`results` imports its table beside other
+  commands' flags)."""
+  flags.DEFINE_integer("round", 1, "The exploration round whose kept episodes are measured.")
+  flags.DEFINE_string("out", None, "Also write the record (for results/) here.")
+
 
 TIPPED_DEG = 30.0
 MEASURES = ("length", "step_boundary_mm", "step_inside_mm", "tilt_deg", "grasps")
@@ -157,4 +163,5 @@ def main(argv):
 
 
 if __name__ == "__main__":
+  define_flags()
   cli.run(main)
