@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 
+import chex
 import jax
 import numpy as np
 import pytest
@@ -116,8 +117,7 @@ def test_a_continued_refit_runs_at_its_own_learning_rate(smoke_run):
       os.path.join(workdir, "rounds", "1"),
     )
   ]
-  for a, b in zip(jax.tree.leaves(params[0]), jax.tree.leaves(params[1])):
-    np.testing.assert_allclose(a, b, atol=1e-12)  # a peak of 1e-30 leaves the round-0 parameters
+  chex.assert_trees_all_close(params[0], params[1], atol=1e-12)  # a peak of 1e-30 leaves the round-0 parameters
   moved = [float(np.abs(a - b).max()) for a, b in zip(jax.tree.leaves(params[0]), jax.tree.leaves(params[2]))]
   assert max(moved) > 1e-4  # at fit.lr the same re-fit moves them
 
@@ -418,10 +418,7 @@ def test_a_fit_interrupted_midway_resumes_to_the_same_parameters(smoke_run, tmp_
   assert not os.path.exists(run.partial_fit_dir(0))  # cleared once the fit finished
   resumed = checkpoint.load(run.ckpt_dir(0)).state
   whole = checkpoint.load(RunDir(workdir, config).ckpt_dir(0)).state
-  for a, b in zip(
-    jax.tree.leaves((resumed.params, resumed.ema_params)), jax.tree.leaves((whole.params, whole.ema_params))
-  ):
-    np.testing.assert_array_equal(a, b)
+  chex.assert_trees_all_equal((resumed.params, resumed.ema_params), (whole.params, whole.ema_params))
   fits = [json.load(open(r.phase_path(0, "fit")))["loss_curve"] for r in (run, RunDir(workdir, config))]
   assert fits[0] == fits[1]
 

@@ -33,6 +33,14 @@ def test_success_rate_reports_count_and_wilson_interval():
   assert metrics.success_rate([True] * 5)["wilson_high"] == 1.0
 
 
+def test_wilson_interval_matches_scipys():
+  from scipy import stats
+
+  for k, n in [(0, 1), (1, 1), (3, 10), (57, 200), (199, 200), (500, 1000)]:
+    ci = stats.binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+    np.testing.assert_allclose(metrics.wilson_interval(k, n), (ci.low, ci.high), atol=1e-9)
+
+
 def test_jerk_is_zero_for_a_quadratic_and_exact_for_a_cubic():
   t = np.arange(40) * metrics.CONTROL_DT
   quad = np.stack([3 * t**2 - t, 0.5 * t**2, np.ones_like(t)], -1)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 
+import chex
 import jax
 import jax.numpy as jnp
 import ml_collections
@@ -70,6 +71,7 @@ class Policy:
 
   def loss(self, params, batch, key):
     """batch: obs (B, To, D), actions (B, T, A), both normalised -> (loss, aux)."""
+    chex.assert_shape(batch["actions"], (None, self.horizon, self.action_dim))  # (checked when traced)
     key_il, key_ib, key_z, key_enc = (jax.random.fold_in(key, i) for i in (_KEY_IL, _KEY_IB, _KEY_Z, _KEY_ENC))
     cond = self.encode(params, batch["obs"], train=True, key=key_enc)
     loss_il, _ = self.head.loss(params["head"], cond, batch["actions"], key_il)
@@ -89,6 +91,7 @@ class Policy:
   def sample(self, params, obs, key, cond_fn=None):
     """Base path a = D(E(o)): (B, To, D) -> (B, T, A)."""
     actions, _ = self.head.sample(params["head"], self.encode(params, obs), key, cond_fn)
+    chex.assert_shape(actions, (None, self.horizon, self.action_dim))
     return actions
 
   def sample_explore(self, params, obs, key, alpha: float | jax.Array, noise_key=None):
@@ -99,6 +102,7 @@ class Policy:
     mu, log_std = self.latent(params, self.encode(params, obs))
     z = mu + alpha * jnp.exp(log_std) * jax.random.normal(key_z, mu.shape)
     actions, _ = self.head.sample(params["head"], self.decode_latent(params, z), key_head)
+    chex.assert_shape([actions, z], [(None, self.horizon, self.action_dim), (None, self.p_net.latent_dim)])
     return actions, z
 
 

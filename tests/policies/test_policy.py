@@ -1,5 +1,6 @@
 """The dual-path policy: exact gradient separation, heads by name, learning on toy problems."""
 
+import chex
 import jax
 import jax.numpy as jnp
 import ml_collections
@@ -84,10 +85,8 @@ def test_bypass_does_not_change_the_base_policy_and_loss_falls():
   p_without, losses_without = _train(
     without, {"encoder": p0["encoder"], "head": p0["head"]}, 150, jax.random.PRNGKey(3)
   )
-  chex_tol = dict(rtol=1e-5, atol=1e-6)
-  for a, b in zip(jax.tree.leaves(p_with["head"]), jax.tree.leaves(p_without["head"])):
-    np.testing.assert_allclose(a, b, **chex_tol)
-  np.testing.assert_allclose(losses, losses_without, **chex_tol)
+  chex.assert_trees_all_close(p_with["head"], p_without["head"], rtol=1e-5, atol=1e-6)
+  np.testing.assert_allclose(losses, losses_without, rtol=1e-5, atol=1e-6)
   assert np.mean(losses[-20:]) < 0.5 * np.mean(losses[:5])
 
 
@@ -117,3 +116,11 @@ def test_every_head_samples_both_paths(head):
   b, z = jax.jit(policy.sample_explore)(params, obs, jax.random.PRNGKey(2), 2.0)
   assert a.shape == b.shape == (8, 16, 3) and z.shape == (8, 4)
   assert np.isfinite(np.asarray(a)).all() and np.isfinite(np.asarray(b)).all()
+
+
+def test_actions_of_the_wrong_shape_are_refused_where_they_enter():
+  policy = make_policy(_config(head="mlp"), 5, 3)
+  params = policy.init(jax.random.PRNGKey(0))
+  batch = _batch(jax.random.PRNGKey(1))
+  with pytest.raises(AssertionError, match=r"\(None, 16, 3\)"):
+    policy.loss(params, dict(batch, actions=batch["actions"][:, :8]), jax.random.PRNGKey(2))  # a horizon of 8
