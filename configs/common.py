@@ -75,7 +75,7 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   c.method = "soe"
   c.env = ml_collections.ConfigDict(dict(task=task, backend="auto", action_mode="absolute", episode_length=400))
   c.data = ml_collections.ConfigDict(
-    dict(num_demos=num_demos, demo_seed=1000, hdf5_path="", max_length=400, capacity=2048)
+    dict(num_demos=num_demos, demo_seed=1000, hdf5_path="", filter_key="", max_length=400, capacity=2048)
   )
   c.policy = ml_collections.ConfigDict(
     dict(

@@ -261,9 +261,11 @@ def demonstrations(config: ml_collections.ConfigDict, env, progress: bool) -> li
   """`config.data.num_demos` successful demonstrations: from `data.hdf5_path`, or scripted."""
   n = int(config.data.num_demos)
   if config.data.hdf5_path:
-    found, _ = hdf5.read_episodes(config.data.hdf5_path, env)  # in this task's quaternion convention
+    path, key = config.data.hdf5_path, config.data.filter_key
+    found, _ = hdf5.read_episodes(path, env, key)  # in this task's quaternion convention
     if len(found) < n:
-      raise ValueError(f"{config.data.hdf5_path} holds {len(found)} episodes; data.num_demos asks for {n}")
+      held = f"{path}{f' (filter key {key!r})' if key else ''} holds {len(found)} episodes"
+      raise ValueError(f"{held}; data.num_demos asks for {n}")
     return found[:n]
   return collect.demonstrations(env, n, int(config.data.demo_seed), progress)
 
@@ -276,7 +278,7 @@ def round0(exp: Experiment) -> tuple:
     hdf5.write_episodes(
       run.demos_path,
       demonstrations(exp.config, exp.env, exp.progress),
-      dict(env_name=exp.env.name, source="demonstrations"),
+      dict(env_name=exp.env.name, env_kwargs=exp.env.config.to_dict(), source="demonstrations"),
     )
   demos = run.demonstrations()
   margin = float(exp.config.policy.normalizer_margin)

@@ -14,8 +14,10 @@ decisions) from the state's `info["slice_key"]`, the control step from `info["st
 and slice size give the same rollouts.
 
 Output (numpy, in the buffer's format): `obs` (N, H, D) raw policy observations before each action,
-`actions` (N, H, A), `eef_pos` (N, H + 1, 3) measured end-effector positions from the start,
-`qpos` (N, H, nq) simulator joint positions before each action, `length` (N,) actions up to and
+`next_obs` (N, H, D) after it, `actions` (N, H, A), `eef_pos` (N, H + 1, 3) measured end-effector
+positions from the start, `qpos` (N, H, nq) simulator joint positions before each action, `states`
+(N, H, 1 + nq + nv) float64 the simulator state [time, qpos, qvel] before each action (robomimic's
+`states`; the C engine's exactly), `length` (N,) actions up to and
 including the successful step (H, the episode length, if none), `success` (N,), `aux`
 {name: (N, ceil(H / Ta), ...)} the strategy's diagnostics per decision (zeros after the whole slice
 ended).
@@ -62,8 +64,10 @@ def decisions_fn(env: manipulation.ManipulationEnv, strategy: Strategy, n_action
       record = dict(
         obs=manipulation.policy_obs(c.state.obs),
         action=action,
+        next_obs=manipulation.policy_obs(nxt.obs),
         eef=nxt.obs["robot0_eef_pos"],
         qpos=c.state.pipeline_state.qpos,
+        sim_state=env.physics.sim_state(c.state.pipeline_state),
       )
       succeeded = active & (nxt.metrics["success"] > 0)
       c = RolloutCarry(
@@ -134,8 +138,10 @@ def _run_slice(env, agent: Agent, strategy, reset_keys, key, decisions_per_call,
   success, length = jax.device_get((carry.success, carry.length))
   return dict(
     obs=rec["obs"],
+    next_obs=rec["next_obs"],
     actions=rec["action"],
     qpos=rec["qpos"],
+    states=env.physics.sim_state_float64(rec["sim_state"]),
     eef_pos=np.concatenate([start_eef[:, None], rec["eef"]], 1),
     length=np.asarray(length),
     success=np.asarray(success),

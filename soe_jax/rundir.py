@@ -48,6 +48,7 @@ ADDED = {
   "policy.bypass.batch_fraction": 1.0,
   "rounds.new_data": "kept",
   "rounds.length_cap": 0.0,
+  "data.filter_key": "",
 }
 # Strategy settings added since, likewise: strategy -> {setting: the value that does what its absence did}.
 ADDED_SETTINGS = {"soe": {"hold": 1}}

@@ -90,7 +90,7 @@ def _demonstration_file(config) -> list[str]:
   """The file `data.hdf5_path` is readable, holds enough episodes, with the task's keys and sizes."""
   path = config.data.hdf5_path
   try:
-    episodes, _ = hdf5.read_episodes(path)
+    episodes, _ = hdf5.read_episodes(path, filter_key=config.data.filter_key)
   except (OSError, ValueError) as e:
     return [str(e)]
   if len(episodes) < config.data.num_demos:

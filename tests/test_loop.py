@@ -266,6 +266,25 @@ def test_a_demonstration_file_of_another_task_is_refused(smoke_run, tmp_path):
   assert not os.path.exists(tmp_path / "run")
 
 
+def test_a_filter_key_takes_the_episodes_of_its_mask(smoke_run, tmp_path):
+  from soe_jax.data import hdf5
+  from soe_jax.envs import make_env
+
+  _, config, workdir, _ = smoke_run
+  demos, _ = hdf5.read_episodes(RunDir(workdir, config).demos_path)
+  path = str(tmp_path / "masked.hdf5")
+  hdf5.write_episodes(path, demos + demos[:1], {"env_name": "lift"}, masks={"core_2": [len(demos), 1]})
+  chosen = lift_config.get_config("smoke")
+  chosen.data.update(hdf5_path=path, filter_key="core_2", num_demos=2)
+  found = loop.demonstrations(chosen, make_env("lift"), progress=False)
+  np.testing.assert_array_equal(found[0]["actions"], demos[1]["actions"])  # the mask's, in file order
+  np.testing.assert_array_equal(found[1]["actions"], demos[0]["actions"])
+  chosen.data.filter_key = "core_20"
+  with pytest.raises(UserError, match=r"no filter key 'core_20'; its filter keys: core_2"):
+    loop.run(chosen, str(tmp_path / "run"), progress=False)
+  assert not os.path.exists(tmp_path / "run")
+
+
 def test_the_same_command_names_the_same_workdir_and_says_it_resumes(smoke_run, tmp_path):
   _, config, workdir, _ = smoke_run
   spec = "configs/lift.py:smoke,soe"

@@ -61,6 +61,13 @@ def test_records_history_episode_length_and_slices(task_env):
   start = jax.vmap(env.reset)(keys)
   np.testing.assert_allclose(out["obs"][:, 0, :3], start.obs["robot0_eef_pos"], atol=1e-6)
   np.testing.assert_allclose(out["qpos"][:, 0], start.pipeline_state.qpos, atol=1e-6)
+  # robomimic's states: the engine's float64 [time, qpos, qvel] before each action, bit for bit.
+  nq, nv = env.mj_model.nq, env.mj_model.nv
+  assert out["states"].dtype == np.float64 and out["states"].shape == (4, EPISODE, 1 + nq + nv)
+  first = rollout.initial_carry(env, policy.n_obs_steps, keys).state.pipeline_state  # the rollout's own reset
+  np.testing.assert_array_equal(out["states"][:, 0], env.physics.float64_state(first)[:, : 1 + nq + nv])
+  assert np.all(np.diff(out["states"][:, :, 0], axis=1) > 0)  # time advances every control step
+  np.testing.assert_array_equal(out["next_obs"][:, :-1], out["obs"][:, 1:])  # the observation after each action
   np.testing.assert_allclose(out["eef_pos"][:, 1:-1], out["obs"][:, 1:, :3], atol=1e-6)
   # Each observation is followed by the action taken from it: the first chunk is 8 steps long, then
   # the next decision starts from the observation after them.

@@ -94,7 +94,7 @@ def test_steer_a_proposal_and_save_it_from_the_browser(page_server):
   episodes, env_args = hdf5.read_episodes(path)
   assert len(episodes) == 1 and episodes[0]["actions"].shape == (steps, 10)
   assert episodes[0]["success"] is False  # a few steps of a smoke policy do not lift the cube
-  assert env_args["steered"] is True
+  assert env_args["soe_jax"]["steered"] is True
 
 
 def test_nonsense_requests_are_refused_and_change_nothing(page_server):

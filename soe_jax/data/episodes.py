@@ -1,6 +1,6 @@
 """Episodes between their three forms: padded batches (rollouts, demonstrations), lists of episodes
-(what HDF5 files hold: {"obs": {key: (T, .)}, "actions" (T, A), "states" (T, nq), "success"}), and the
-fixed-capacity training buffer.
+(what HDF5 files hold: {"obs": {key: (T, .)}, "next_obs" {key: (T, .)}, "actions" (T, A), "states"
+(T, 1 + nq + nv) float64 [time, qpos, qvel], "success"}), and the fixed-capacity training buffer.
 
 An `EpisodeSet` is one group of episodes with its provenance: `source` 0 for demonstrations, r for
 exploration round r, and `steered` for episodes a person steered on the steering page.
@@ -23,28 +23,24 @@ class EpisodeSet(NamedTuple):
   steered: bool = False
 
 
-def from_batch(obs: dict, actions, states, length, success, mask=None) -> list[dict]:
+def from_batch(obs: dict, actions, states, length, success, mask=None, next_obs: dict | None = None) -> list[dict]:
   """Padded arrays (N, H, ...) with lengths (N,) -> the episodes where `mask` (N,) is set (default all),
   trimmed to their lengths."""
   keep = np.ones(len(length), bool) if mask is None else np.asarray(mask, bool)
   out = []
   for i in np.flatnonzero(keep):
     t = int(length[i])
-    out.append(
-      dict(
-        obs={k: v[i, :t] for k, v in obs.items()},
-        actions=actions[i, :t],
-        states=states[i, :t],
-        success=bool(success[i]),
-      )
-    )
+    ep = dict(obs={k: v[i, :t] for k, v in obs.items()}, actions=actions[i, :t], states=states[i, :t])
+    if next_obs is not None:
+      ep["next_obs"] = {k: v[i, :t] for k, v in next_obs.items()}
+    out.append(dict(ep, success=bool(success[i])))
   return out
 
 
 def from_rollout(out: dict, mask) -> list[dict]:
   """The episodes of a rollout's output (`rollout.rollout`) where `mask` (N,) is set."""
-  obs = manipulation.split_policy_obs(out["obs"])
-  return from_batch(obs, out["actions"], out["qpos"], out["length"], out["success"], mask)
+  obs, next_obs = (manipulation.split_policy_obs(out[k]) for k in ("obs", "next_obs"))
+  return from_batch(obs, out["actions"], out["states"], out["length"], out["success"], mask, next_obs)
 
 
 def policy_episode(ep: dict) -> dict:

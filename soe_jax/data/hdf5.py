@@ -1,12 +1,35 @@
-"""Episodes in robomimic's HDF5 layout, written and read back exactly.
+"""Episodes in robomimic's HDF5 layout, written so that robomimic's own readers take them, and read
+back exactly (robomimic's own files included).
 
-Layout (as robomimic's datasets): `data/` with attributes `total` (number of samples) and `env_args`
-(JSON); one group `data/demo_i` per episode with attribute `num_samples`, datasets `actions` (T, A),
-`obs/<key>` (T, d), `rewards` (T,), `dones` (T,), and `states` (T, nq) (here: joint positions of the
-whole scene; robomimic stores MuJoCo's flattened state). `mask/` is left out.
+What robomimic reads (ARISE-Initiative/robomimic at d309eae):
+- `data` group, attribute `env_args`: JSON with `env_name`, `type` (an integer of `EnvType`:
+  1 robosuite, 2 gym, 3 iGibson; `robomimic/envs/env_base.py` lines 9-16) and `env_kwargs` (a dict),
+  `robomimic/utils/file_utils.py` lines 89-118 (`get_env_metadata_from_dataset`); attribute `total`,
+  the number of samples.
+- `data/demo_<i>`: the episodes, named so that robomimic sorts them by the integer after `demo_`
+  (`robomimic/utils/dataset.py` line 204); attribute `num_samples` (T) (dataset.py line 221);
+  `obs/<key>` (T, ...) and `next_obs/<key>` (T, ...) per observation key (dataset.py lines 320-322,
+  `load_next_obs` on by default); `actions`, `rewards`, `dones` read with `.astype('float32')`,
+  a missing one read as zeros (dataset.py lines 324-328); `states` (T, 1 + nq + nv), MuJoCo's state
+  flattened as robosuite's `MjSimState.flatten`: [time, qpos, qvel] (robosuite
+  `robosuite/utils/binding_utils.py`, `MjSimState`), which `robomimic/scripts/playback_dataset.py`
+  (lines 285-288) loads one by one; an optional attribute `model_file` (the scene's MJCF).
+- `mask/<filter key>`: an array of episode names as bytes (`dtype='S'`), written by
+  `file_utils.create_hdf5_filter_key` (lines 60-63) and read by `get_demos_for_filter_key` (line 84)
+  and the dataset's `filter_by_attribute` (dataset.py line 199), e.g. robomimic's `core_20` and
+  SIME's `train_0.5`.
 
-An episode is a dict: `obs` {key: (T, d) float32}, `actions` (T, A) float32, and optionally `states`
-and `success` (written as the last step's `dones`; read back from it).
+Written here: all of the above but `model_file` (the scenes are this project's, not robosuite's);
+`env_args` = {env_name: robosuite's name for the task, type: 1, env_kwargs: the task's config where
+the writer has it, soe_jax: the writer's metadata (task, source, round, strategy, ...)}; `rewards` 1
+and `dones` 1 at the last step of a successful episode (robomimic's sparse reward), else 0; `states`
+as given (float64 [time, qpos, qvel] from this project's rollouts and demonstrations, bit for bit
+the C engine's).
+
+An episode is a dict: `obs` {key: (T, d) float32}, `actions` (T, A) float32, and optionally
+`next_obs` {key: (T, d)} (an episode without it, e.g. from a file written before it was recorded,
+is written with each step's next observation the following step's, the last one repeated),
+`states` and `success` (written as the last step's `dones`; read back from it).
 """
 
 from __future__ import annotations
@@ -17,11 +40,34 @@ import os
 import h5py
 import numpy as np
 
+ROBOSUITE_TYPE = 1  # robomimic's EnvType.ROBOSUITE_TYPE
+# robosuite's names of the tasks rebuilt here.
+ROBOSUITE_NAMES = {"lift": "Lift", "can": "PickPlaceCan", "square": "NutAssemblySquare", "transport": "TwoArmTransport"}
 
-def write_episodes(path: str, episodes: list[dict], env_args: dict) -> None:
-  """Write `episodes` to `path` atomically (a temporary file, then a rename)."""
+
+def robomimic_env_args(meta: dict) -> dict:
+  """robomimic's `env_args` for a file whose writer says `meta` ({env_name: the task, env_kwargs: its
+  config (optional), ...}): robosuite's name and type, the kwargs, and `meta` under `soe_jax`."""
+  meta = dict(meta)
+  kwargs = meta.pop("env_kwargs", {})
+  task = meta.get("env_name", "")
+  return dict(env_name=ROBOSUITE_NAMES.get(task, task), type=ROBOSUITE_TYPE, env_kwargs=kwargs, soe_jax=meta)
+
+
+def _next_obs(ep: dict) -> dict:
+  if "next_obs" in ep:
+    return ep["next_obs"]
+  return {k: np.concatenate([v[1:], v[-1:]]) for k, v in ep["obs"].items()}
+
+
+def write_episodes(path: str, episodes: list[dict], meta: dict, masks: dict[str, list[int]] | None = None) -> None:
+  """Write `episodes` to `path` atomically (a temporary file, then a rename); `meta` goes into
+  `env_args` (`robomimic_env_args`), `masks` {filter key: episode indices} into `mask/`."""
   tmp = f"{path}.tmp-{os.getpid()}"
   os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+  for key, indices in (masks or {}).items():
+    if any(not 0 <= i < len(episodes) for i in indices):
+      raise ValueError(f"mask {key!r} names episodes outside 0..{len(episodes) - 1}: {sorted(indices)}")
   with h5py.File(tmp, "w") as f:
     data = f.create_group("data")
     total = 0
@@ -39,20 +85,24 @@ def write_episodes(path: str, episodes: list[dict], env_args: dict) -> None:
       g.create_dataset("dones", data=dones)
       if "states" in ep:
         g.create_dataset("states", data=np.asarray(ep["states"]))
-      obs = g.create_group("obs")
-      for key, value in ep["obs"].items():
-        value = np.asarray(value)
-        if value.shape[0] != t:
-          raise ValueError(f"episode {i}: obs[{key!r}] has {value.shape[0]} steps, actions have {t}")
-        obs.create_dataset(key, data=value)
+      for group, obs in (("obs", ep["obs"]), ("next_obs", _next_obs(ep))):
+        out = g.create_group(group)
+        for key, value in obs.items():
+          value = np.asarray(value)
+          if value.shape[0] != t:
+            raise ValueError(f"episode {i}: {group}[{key!r}] has {value.shape[0]} steps, actions have {t}")
+          out.create_dataset(key, data=value)
       total += t
     data.attrs["total"] = total
-    data.attrs["env_args"] = json.dumps(env_args)
+    data.attrs["env_args"] = json.dumps(robomimic_env_args(meta))
+    for key, indices in (masks or {}).items():
+      f[f"mask/{key}"] = np.array([f"demo_{i}" for i in sorted(indices)], dtype="S")
   os.replace(tmp, path)
 
 
-def read_episodes(path: str, env=None) -> tuple[list[dict], dict]:
-  """Read a robomimic-layout file -> (episodes in `demo_i` index order, env_args).
+def read_episodes(path: str, env=None, filter_key: str = "") -> tuple[list[dict], dict]:
+  """Read a robomimic-layout file -> (episodes in `demo_i` index order, env_args); with `filter_key`,
+  only the episodes its mask names (robomimic's `filter_by_attribute`).
 
   With `env` (the task, a `ManipulationEnv`), each episode's quaternion observations are put in the
   task's sign convention (`ManipulationEnv.conform_quaternions`: the hand's hemisphere, objects
@@ -70,7 +120,18 @@ def read_episodes(path: str, env=None) -> tuple[list[dict], dict]:
       raise ValueError(f"demonstration file {path!r} has no 'data' group (not robomimic's layout)")
     data = f["data"]
     env_args = json.loads(data.attrs.get("env_args", "{}"))
-    names = sorted((k for k in data.keys() if k.startswith("demo_")), key=lambda k: int(k.split("_")[1]))
+    names = [k for k in data.keys() if k.startswith("demo_")]
+    if filter_key:
+      known = sorted(f["mask"].keys()) if "mask" in f else []
+      if filter_key not in known:
+        raise ValueError(
+          f"demonstration file {path!r} has no filter key {filter_key!r}; its filter keys: {', '.join(known) or 'none'}"
+        )
+      names = [n.decode("utf-8") for n in np.array(f[f"mask/{filter_key}"][:])]
+      missing = [n for n in names if n not in data]
+      if missing:
+        raise ValueError(f"demonstration file {path!r}: mask {filter_key!r} names missing episodes {missing[:5]}")
+    names = sorted(names, key=lambda k: int(k.split("_")[1]))
     episodes = []
     for name in names:
       g = data[name]
@@ -78,6 +139,8 @@ def read_episodes(path: str, env=None) -> tuple[list[dict], dict]:
         if required not in g:
           raise ValueError(f"demonstration file {path!r}: {name} has no {required!r}")
       ep = {"actions": g["actions"][()], "obs": {k: g["obs"][k][()] for k in g["obs"].keys()}}
+      if "next_obs" in g:
+        ep["next_obs"] = {k: g["next_obs"][k][()] for k in g["next_obs"].keys()}
       if "states" in g:
         ep["states"] = g["states"][()]
       if "dones" in g and len(g["dones"]):
@@ -86,6 +149,11 @@ def read_episodes(path: str, env=None) -> tuple[list[dict], dict]:
         missing = [k for k in ("robot0_eef_quat", "object") if k not in ep["obs"]]
         if missing:
           raise ValueError(f"demonstration file {path!r}: {name} has no obs {', '.join(missing)}")
-        ep["obs"] = env.conform_quaternions(ep["obs"])
+        if set(ep.get("next_obs", {})) >= set(ep["obs"]):  # one sequence: obs, then the last next_obs
+          full = env.conform_quaternions({k: np.concatenate([v, ep["next_obs"][k][-1:]]) for k, v in ep["obs"].items()})
+          ep["obs"], ep["next_obs"] = {k: v[:-1] for k, v in full.items()}, {k: v[1:] for k, v in full.items()}
+        else:
+          ep["obs"] = env.conform_quaternions(ep["obs"])
+          ep.pop("next_obs", None)
       episodes.append(ep)
   return episodes, env_args

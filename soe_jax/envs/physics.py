@@ -77,6 +77,16 @@ class MjxBackend:
     d, _ = jax.lax.scan(substep, d, None, length=self.nsubsteps)
     return PhysicsState(qpos=d.qpos, qvel=d.qvel, raw=d)
 
+  def sim_state(self, state: PhysicsState) -> jax.Array:
+    """What a rollout records for robomimic's `states`: [time, qpos, qvel] (..., 1 + nq + nv), in MJX's
+    own float32."""
+    d = state.raw
+    return jnp.concatenate([d.time[..., None], d.qpos, d.qvel], -1)
+
+  def sim_state_float64(self, recorded) -> np.ndarray:
+    """Recorded `sim_state`s on the host -> (..., 1 + nq + nv) float64 (exactly MJX's values)."""
+    return np.asarray(recorded, np.float64)
+
 
 class MujocoBackend:
   """The C engine, batched and multi-threaded with `mujoco.rollout`, behind `jax.pure_callback`."""
@@ -178,6 +188,15 @@ class MujocoBackend:
       self._host_step, shapes, state.raw, ctrl.astype(jnp.float32), vmap_method="broadcast_all"
     )
     return PhysicsState(qpos=qpos, qvel=qvel, raw=bits)
+
+  def sim_state(self, state: PhysicsState) -> jax.Array:
+    """What a rollout records for robomimic's `states`: the engine's float64 [time, qpos, qvel], the
+    start of mjSTATE_FULLPHYSICS, as its uint32 bytes (..., 2 (1 + nq + nv))."""
+    return state.raw[..., : 2 * (1 + self.model.nq + self.model.nv)]
+
+  def sim_state_float64(self, recorded) -> np.ndarray:
+    """Recorded `sim_state`s on the host -> (..., 1 + nq + nv) float64, bit for bit the engine's."""
+    return np.ascontiguousarray(recorded).view(np.float64)
 
   def float64_state(self, state: PhysicsState) -> np.ndarray:
     """The exact MuJoCo state on the host, (..., nstate) float64."""

@@ -54,7 +54,7 @@ def main(argv):
     hdf5.write_episodes(
       FLAGS.out,
       episodes,
-      env_args=dict(env_name=FLAGS.task, env_kwargs=env.config.to_dict(), type="soe_jax", seed=FLAGS.seed),
+      dict(env_name=FLAGS.task, env_kwargs=env.config.to_dict(), source="scripted demonstrator", seed=FLAGS.seed),
     )
     result["out"] = FLAGS.out
     result["num_saved"] = len(episodes)

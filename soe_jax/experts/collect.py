@@ -30,7 +30,12 @@ def _chunk_fn(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, 
       action, es = act(es, state.obs)
       nxt = step(state, action)
       success = nxt.metrics["success"] > 0
-      record = ({k: state.obs[k] for k in RECORDED_KEYS}, action, done, state.pipeline_state.qpos)
+      record = (
+        {k: state.obs[k] for k in RECORDED_KEYS},
+        action,
+        {k: nxt.obs[k] for k in RECORDED_KEYS},
+        env.physics.sim_state(state.pipeline_state),
+      )
       ep_len = jnp.where(done, ep_len, ep_len + 1)
       return (nxt, es, done | success, ep_len), record
 
@@ -48,10 +53,10 @@ def run_demos(
 ) -> dict:
   """Demonstrations from the start states of `keys` (N, 2), each until success or the episode length.
 
-  Returns numpy arrays: `obs` {key: (N, T, d)}, `actions` (N, T, 10), `states` (N, T, nq) scene joint
-  positions, `length` (N,) actions taken up
-  to and including the successful step (the episode length if none), `success` (N,). Steps after an
-  episode's end are padding.
+  Returns numpy arrays: `obs` {key: (N, T, d)} before each action and `next_obs` after it, `actions`
+  (N, T, 10), `states` (N, T, 1 + nq + nv) float64 the simulator state [time, qpos, qvel] before each
+  action, `length` (N,) actions taken up to and including the successful step (the episode length if
+  none), `success` (N,). Steps after an episode's end are padding.
   """
   keys = jnp.asarray(keys)
   key_env, key_expert = keys, jax.vmap(lambda k: jax.random.fold_in(k, 1))(keys)
@@ -72,21 +77,26 @@ def run_demos(
       break
   bar.refresh()  # draw the full bar before it goes (an update may fall inside tqdm's redraw interval)
   bar.close()
-  obs = {
-    k: np.concatenate([r[0][k] for r in records], 0).swapaxes(0, 1)[:, : env.episode_length] for k in RECORDED_KEYS
-  }
-  actions = np.concatenate([r[1] for r in records], 0).swapaxes(0, 1)[:, : env.episode_length]
-  states = np.concatenate([r[3] for r in records], 0).swapaxes(0, 1)[:, : env.episode_length]
+  cat = lambda xs: np.concatenate(xs, 0).swapaxes(0, 1)[:, : env.episode_length]
+  obs, next_obs = ({k: cat([r[i][k] for r in records]) for k in RECORDED_KEYS} for i in (0, 2))
+  states = env.physics.sim_state_float64(cat([r[3] for r in records]))
   done, length = jax.device_get(carry[2:])
   return dict(
-    obs=obs, actions=actions, states=states, length=np.minimum(length, env.episode_length), success=np.asarray(done)
+    obs=obs,
+    next_obs=next_obs,
+    actions=cat([r[1] for r in records]),
+    states=states,
+    length=np.minimum(length, env.episode_length),
+    success=np.asarray(done),
   )
 
 
 def split_episodes(batch: dict, only_successful: bool = True) -> list[dict]:
   """The batch from `run_demos` -> a list of episodes trimmed to their lengths."""
   mask = batch["success"] if only_successful else None
-  return episodes.from_batch(batch["obs"], batch["actions"], batch["states"], batch["length"], batch["success"], mask)
+  return episodes.from_batch(
+    batch["obs"], batch["actions"], batch["states"], batch["length"], batch["success"], mask, batch["next_obs"]
+  )
 
 
 def demonstrations(env: manipulation.ManipulationEnv, num: int, seed: int, progress: bool = True) -> list[dict]:

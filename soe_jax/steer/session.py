@@ -77,7 +77,7 @@ class SteeringSession:
     self.key = jax.random.fold_in(jax.random.PRNGKey(int(self.config.seed) + 7), self.seed)
     self.state = self._reset(jax.random.split(jax.random.PRNGKey(self.seed), 1))
     self.hist = agent_lib.initial_history(manipulation.policy_obs(self.state.obs), self.policy.n_obs_steps)
-    self.episode = dict(obs=[], actions=[], states=[])
+    self.episode = dict(obs=[], next_obs=[], actions=[], states=[])
     self.eef = [np.asarray(self.state.obs["robot0_eef_pos"][0])]
     self.success = False
     self.finished = False
@@ -119,10 +119,13 @@ class SteeringSession:
       )
     for action in cands[int(index)]:
       self.episode["obs"].append(np.asarray(self.hist[0, -1]))
-      self.episode["states"].append(np.asarray(self.state.pipeline_state.qpos[0]))
+      self.episode["states"].append(
+        self.env.physics.sim_state_float64(self.env.physics.sim_state(self.state.pipeline_state))[0]
+      )
       self.episode["actions"].append(np.asarray(action))
       self.state = self._step(self.state, jnp.asarray(action)[None])
       self.hist = agent_lib.push_history(self.hist, manipulation.policy_obs(self.state.obs))
+      self.episode["next_obs"].append(np.asarray(self.hist[0, -1]))
       self.eef.append(np.asarray(self.state.obs["robot0_eef_pos"][0]))
       if bool(self.state.metrics["success"][0] > 0):
         self.success = True
@@ -149,10 +152,10 @@ class SteeringSession:
       )
     path = self.run.steered_path(self.round)
     episodes = hdf5.read_episodes(path)[0] if os.path.exists(path) else []
-    obs = np.stack(self.episode["obs"])
     episodes.append(
       dict(
-        obs=manipulation.split_policy_obs(obs),
+        obs=manipulation.split_policy_obs(np.stack(self.episode["obs"])),
+        next_obs=manipulation.split_policy_obs(np.stack(self.episode["next_obs"])),
         actions=np.stack(self.episode["actions"]),
         states=np.stack(self.episode["states"]),
         success=self.success,

@@ -19,6 +19,12 @@ def test_lift_demonstrations_succeed_and_vary(jitted_env):
   # Smooth: commanded positions move less than 3 cm per step.
   for e in episodes:
     assert np.abs(np.diff(e["actions"][:, :3], axis=0)).max() < 0.03
+  # robomimic's fields: states [time, qpos, qvel] in float64, and each step's next observation.
+  e, nq, nv = episodes[0], env.mj_model.nq, env.mj_model.nv
+  assert e["states"].dtype == np.float64 and e["states"].shape == (len(e["actions"]), 1 + nq + nv)
+  assert e["states"][0, 0] == 0.0 and np.all(np.diff(e["states"][:, 0]) > 0)  # time from the reset on
+  for k in e["obs"]:
+    np.testing.assert_array_equal(e["next_obs"][k][:-1], e["obs"][k][1:])
   again = collect.run_demos(env, make_expert("lift"), keys, progress=False)
   np.testing.assert_array_equal(batch["actions"], again["actions"])
 
