@@ -1,0 +1,136 @@
+"""A run's data in another codebase's format, and read back.
+
+  python -m soe_jax.data.export --workdir=DIR [--round=R] --format=robomimic|zarr --out=PATH
+
+Exports the data the fit of round R (default: the run's last) trained on, as the loop gathers it:
+the demonstrations, the episodes each round up to R kept, and the steered episodes the fit took.
+Formats:
+- `robomimic`: one HDF5 file (`soe_jax/data/hdf5.py`), the episodes in that order, with a filter key
+  per group: `demos`, `round_<r>`, `steered_<r>` (robomimic's `filter_by_attribute` takes one);
+- `zarr`: Diffusion Policy's replay buffer (`soe_jax/data/zarr_store.py`), each episode's group in
+  `meta/episode_source` and `meta/episode_steered`.
+`load(path)` reads either back as the same groups of episodes (`EpisodeSet`s), so a buffer built
+from them holds the same windows.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+
+from absl import app, flags
+
+from soe_jax import cli
+from soe_jax.data import hdf5, zarr_store
+from soe_jax.data.episodes import EpisodeSet
+from soe_jax.errors import UserError
+
+FORMATS = ("robomimic", "zarr")
+
+
+def define_flags() -> None:
+  flags.DEFINE_string("workdir", None, "The run directory whose data is exported.")
+  flags.DEFINE_integer("round", None, "The round whose fit's data is exported (default: the run's last).")
+  flags.DEFINE_enum("format", None, FORMATS, "robomimic (HDF5) or zarr (Diffusion Policy's replay buffer).")
+  flags.DEFINE_string("out", None, "Where the file (robomimic) or the zarr directory goes.")
+
+
+def run_sets(workdir: str, r: int | None = None) -> tuple[list[EpisodeSet], dict]:
+  """The episode groups round r's fit of the run in `workdir` trained on (default r: the last round
+  with a policy), and the metadata that goes with them."""
+  from soe_jax import rundir
+
+  run = rundir.RunDir.open(workdir)
+  last = run.last_round()
+  r = last if r is None else r
+  if not 0 <= r <= last:
+    raise UserError(f"{workdir}: round {r} has no policy yet; its rounds with one are 0..{last}")
+  sets = [EpisodeSet(run.demonstrations(), 0)]
+  for q in range(1, r + 1):
+    if os.path.exists(run.data_path(q)):
+      sets.append(EpisodeSet(hdf5.read_episodes(run.data_path(q))[0], q))
+  sets += run.steered_sets(r, run.config.rounds.steered == "successful")
+  meta = dict(
+    env_name=run.config.env.task,
+    env_kwargs=run.config.env.to_dict(),
+    source=f"{os.path.abspath(workdir)}: the data of round {r}'s fit",
+    method=run.config.method,
+    seed=int(run.config.seed),
+    round=r,
+  )
+  return [s for s in sets if s.episodes], meta
+
+
+def group_name(s: EpisodeSet) -> str:
+  """The filter key of a group: demos, round_<r>, steered_<r>."""
+  return "demos" if s.source == 0 and not s.steered else f"{'steered' if s.steered else 'round'}_{s.source}"
+
+
+def write_robomimic(path: str, sets: list[EpisodeSet], meta: dict) -> None:
+  episodes, masks, start = [], {}, 0
+  for s in sets:
+    masks.setdefault(group_name(s), []).extend(range(start, start + len(s.episodes)))
+    episodes += s.episodes
+    start += len(s.episodes)
+  hdf5.write_episodes(path, episodes, meta, masks)
+
+
+def _meta(env_args: dict) -> dict:
+  """The writer's metadata back from robomimic's `env_args` (a file written elsewhere: `env_args`)."""
+  if "soe_jax" not in env_args:
+    return env_args
+  return dict(env_args["soe_jax"], env_kwargs=env_args.get("env_kwargs", {}))
+
+
+def read_robomimic(path: str) -> tuple[list[EpisodeSet], dict]:
+  """A file with this exporter's filter keys -> its groups; any other file -> one group of all its
+  episodes, as demonstrations."""
+  import h5py
+
+  with h5py.File(path, "r") as f:
+    keys = sorted(f["mask"].keys()) if "mask" in f else []
+  groups = [k for k in keys if k == "demos" or re.fullmatch(r"(round|steered)_\d+", k)]
+  if not groups:
+    episodes, env_args = hdf5.read_episodes(path)
+    return [EpisodeSet(episodes, 0)], _meta(env_args)
+  order = lambda k: (("demos", "round", "steered").index(k.split("_")[0]), int(k.split("_")[-1]) if "_" in k else 0)
+  sets = []
+  for key in sorted(groups, key=order):
+    episodes, env_args = hdf5.read_episodes(path, filter_key=key)
+    source = 0 if key == "demos" else int(key.split("_")[1])
+    sets.append(EpisodeSet(episodes, source, key.startswith("steered")))
+  return sets, _meta(env_args)
+
+
+def export(workdir: str, fmt: str, out: str, r: int | None = None) -> tuple[list[EpisodeSet], dict]:
+  """Write round r's data of the run in `workdir` to `out` in format `fmt`; returns what it wrote."""
+  if fmt not in FORMATS:
+    raise UserError(f"unknown format {fmt!r}; known formats: {', '.join(FORMATS)}")
+  sets, meta = run_sets(workdir, r)
+  (write_robomimic if fmt == "robomimic" else zarr_store.write)(out, sets, meta)
+  return sets, meta
+
+
+def load(path: str) -> tuple[list[EpisodeSet], dict]:
+  """Read an exported file or store back (the format from what is there: a zarr group or an HDF5 file)."""
+  if os.path.isdir(path):
+    return zarr_store.read(path)
+  if not os.path.exists(path):
+    raise FileNotFoundError(f"{path!r} does not exist")
+  return read_robomimic(path)
+
+
+def main(argv):
+  if len(argv) > 1:
+    raise app.UsageError(f"unexpected arguments: {' '.join(argv[1:])}")
+  for name in ("workdir", "format", "out"):
+    if not getattr(flags.FLAGS, name):
+      raise app.UsageError(f"--{name} is required")
+  sets, _ = export(flags.FLAGS.workdir, flags.FLAGS.format, flags.FLAGS.out, flags.FLAGS.round)
+  counts = ", ".join(f"{group_name(s)}: {len(s.episodes)}" for s in sets)
+  print(f"{flags.FLAGS.out}: {sum(len(s.episodes) for s in sets)} episodes ({counts})")
+
+
+if __name__ == "__main__":
+  define_flags()
+  cli.run(main)

@@ -1,0 +1,74 @@
+"""A run's data exported to robomimic's HDF5 and Diffusion Policy's zarr and read back: the same episodes,
+groups and provenance, so a buffer built from them holds the same windows."""
+
+import os
+import shutil
+import types
+
+import chex
+import numpy as np
+import pytest
+
+from soe_jax.data import export, hdf5, inspect
+from soe_jax.data.episodes import build_buffer
+from soe_jax.errors import UserError
+from soe_jax.rundir import RunDir
+
+
+@pytest.fixture(scope="module")
+def run_with_data(smoke_run, tmp_path_factory):
+  """The smoke run, with a kept round 1 and a steered round 0 of (relabelled) demonstrations."""
+  root, config, workdir, _ = smoke_run
+  runs = tmp_path_factory.mktemp("export") / "runs"
+  shutil.copytree(root, runs)  # the run beside its round 0
+  copy = str(runs / os.path.basename(workdir))
+  shutil.rmtree(os.path.join(copy, "data"), ignore_errors=True)  # (whatever the smoke run kept)
+  run = RunDir.open(copy)
+  demos = run.demonstrations()
+  hdf5.write_episodes(run.data_path(1), demos[1:3], {"env_name": "lift", "round": 1})
+  steered = [dict(demos[0], success=False), demos[3]]
+  hdf5.write_episodes(run.steered_path(0), steered, {"env_name": "lift", "steered": True})
+  return copy, config, len(demos)
+
+
+def _buffer(config, sets):
+  dims = types.SimpleNamespace(obs_dim=19, action_dim=10)  # lift's policy observation and action sizes
+  return build_buffer(config, dims, sets)
+
+
+@pytest.mark.parametrize("fmt", export.FORMATS)
+def test_an_export_reads_back_as_the_same_groups_and_buffer(run_with_data, tmp_path, fmt):
+  workdir, config, num_demos = run_with_data
+  out = str(tmp_path / ("data.hdf5" if fmt == "robomimic" else "data.zarr"))
+  sets, meta = export.export(workdir, fmt, out, r=2)
+  assert [(s.source, s.steered, len(s.episodes)) for s in sets] == [(0, False, num_demos), (1, False, 2), (0, True, 1)]
+  back, back_meta = export.load(out)
+  assert back_meta == meta and meta["round"] == 2 and meta["env_name"] == "lift"
+  assert [(s.source, s.steered, len(s.episodes)) for s in back] == [
+    (s.source, s.steered, len(s.episodes)) for s in sets
+  ]
+  for a, b in zip([ep for s in sets for ep in s.episodes], [ep for s in back for ep in s.episodes]):
+    for k in ("actions", "states"):
+      assert a[k].dtype == b[k].dtype
+      np.testing.assert_array_equal(a[k], b[k])
+    for group in ("obs", "next_obs"):
+      chex.assert_trees_all_equal(a[group], b[group])
+    assert a.get("success", True) == b.get("success", True)
+  chex.assert_trees_all_equal(_buffer(config, sets), _buffer(config, back))
+  described = inspect.describe(out)
+  assert ("filter key steered_0: 1 episodes" if fmt == "robomimic" else "steered_0: 1 episodes") in described
+  assert '"round": 2' in described and "states: (" in described and "float64" in described
+
+
+def test_round_0_exports_the_demonstrations_alone_and_bad_requests_say_why(run_with_data, tmp_path):
+  workdir, _, num_demos = run_with_data
+  sets, _ = export.export(workdir, "robomimic", str(tmp_path / "r0.hdf5"), r=0)
+  assert [(s.source, len(s.episodes)) for s in sets] == [(0, num_demos)]
+  with pytest.raises(UserError, match=r"round 7 has no policy yet; its rounds with one are 0..2"):
+    export.export(workdir, "zarr", str(tmp_path / "x.zarr"), r=7)
+  with pytest.raises(UserError, match="unknown format 'rlds2'; known formats: robomimic, zarr"):
+    export.export(workdir, "rlds2", str(tmp_path / "x"))
+  assert not os.path.exists(tmp_path / "x.zarr")
+  (tmp_path / "empty.zarr").mkdir()
+  with pytest.raises(ValueError, match="empty.zarr.*not Diffusion Policy's replay-buffer layout"):
+    export.load(str(tmp_path / "empty.zarr"))
