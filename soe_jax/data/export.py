@@ -1,6 +1,6 @@
 """A run's data in another codebase's format, and read back.
 
-  python -m soe_jax.data.export --workdir=DIR [--round=R] --format=robomimic|zarr --out=PATH
+  python -m soe_jax.data.export --workdir=DIR [--round=R] --format=robomimic|zarr|rlds --out=PATH
 
 Exports the data the fit of round R (default: the run's last) trained on, as the loop gathers it:
 the demonstrations, the episodes each round up to R kept, and the steered episodes the fit took.
@@ -8,7 +8,9 @@ Formats:
 - `robomimic`: one HDF5 file (`soe_jax/data/hdf5.py`), the episodes in that order, with a filter key
   per group: `demos`, `round_<r>`, `steered_<r>` (robomimic's `filter_by_attribute` takes one);
 - `zarr`: Diffusion Policy's replay buffer (`soe_jax/data/zarr_store.py`), each episode's group in
-  `meta/episode_source` and `meta/episode_steered`.
+  `meta/episode_source` and `meta/episode_steered`;
+- `rlds`: an RLDS dataset through tensorflow-datasets (`soe_jax/data/rlds.py`), each episode's group in
+  its `episode_metadata`.
 `load(path)` reads either back as the same groups of episodes (`EpisodeSet`s), so a buffer built
 from them holds the same windows.
 """
@@ -21,18 +23,18 @@ import re
 from absl import app, flags
 
 from soe_jax import cli
-from soe_jax.data import hdf5, zarr_store
+from soe_jax.data import hdf5, rlds, zarr_store
 from soe_jax.data.episodes import EpisodeSet
 from soe_jax.errors import UserError
 
-FORMATS = ("robomimic", "zarr")
+FORMATS = ("robomimic", "zarr", "rlds")
 
 
 def define_flags() -> None:
   flags.DEFINE_string("workdir", None, "The run directory whose data is exported.")
   flags.DEFINE_integer("round", None, "The round whose fit's data is exported (default: the run's last).")
-  flags.DEFINE_enum("format", None, FORMATS, "robomimic (HDF5) or zarr (Diffusion Policy's replay buffer).")
-  flags.DEFINE_string("out", None, "Where the file (robomimic) or the zarr directory goes.")
+  flags.DEFINE_enum("format", None, FORMATS, "robomimic (HDF5), zarr (Diffusion Policy's replay buffer) or rlds.")
+  flags.DEFINE_string("out", None, "Where the file (robomimic) or the directory (zarr, rlds) goes.")
 
 
 def run_sets(workdir: str, r: int | None = None) -> tuple[list[EpisodeSet], dict]:
@@ -107,12 +109,15 @@ def export(workdir: str, fmt: str, out: str, r: int | None = None) -> tuple[list
   if fmt not in FORMATS:
     raise UserError(f"unknown format {fmt!r}; known formats: {', '.join(FORMATS)}")
   sets, meta = run_sets(workdir, r)
-  (write_robomimic if fmt == "robomimic" else zarr_store.write)(out, sets, meta)
+  {"robomimic": write_robomimic, "zarr": zarr_store.write, "rlds": rlds.write}[fmt](out, sets, meta)
   return sets, meta
 
 
 def load(path: str) -> tuple[list[EpisodeSet], dict]:
-  """Read an exported file or store back (the format from what is there: a zarr group or an HDF5 file)."""
+  """Read an exported file or directory back (the format from what is there: an RLDS dataset, a zarr
+  group or an HDF5 file)."""
+  if os.path.isdir(os.path.join(path, rlds.NAME)):
+    return rlds.read(path)
   if os.path.isdir(path):
     return zarr_store.read(path)
   if not os.path.exists(path):

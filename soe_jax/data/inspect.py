@@ -3,7 +3,7 @@
   python -m soe_jax.data.inspect PATH
 
 PATH: a robomimic HDF5 file (this project's demonstrations, a round's kept episodes, an export, or
-robomimic's own) or an exported zarr store. Prints the episodes per group (filter key, or source
+robomimic's own), or an exported zarr store or RLDS dataset. Prints the episodes per group (filter key, or source
 round), their lengths, every key with its shape and dtype, and the provenance the file records.
 """
 
@@ -39,7 +39,7 @@ def describe(path: str) -> str:
     f"{path}: {len(episodes)} episodes, {lengths.sum()} steps; length min {lengths.min()} / mean "
     f"{lengths.mean():.1f} / max {lengths.max()}; successful {sum(ep.get('success', True) for ep in episodes)}"
   ]
-  if os.path.isdir(path):  # zarr: the groups its meta records
+  if os.path.isdir(path):  # zarr, RLDS: the groups their metadata records
     for s in sets:
       n = [len(ep["actions"]) for ep in s.episodes]
       lines.append(f"  {export.group_name(s)}: {len(n)} episodes, mean length {np.mean(n):.1f}")
