@@ -6,8 +6,8 @@ Layout (RLDS: github.com/google-research/rlds): one TFDS dataset `soe_jax_episod
 under the given directory, split `train`, one example per episode:
 - `steps`: T + 1 steps for an episode of T actions. Step t < T holds `observation` {key: (d,)} (the
   observation before action t), `action` (A,), `reward` (1 at the last action of a successful
-  episode, else 0), `discount` 1, `state` (1 + nq + nv,) float64, and `is_first` (t = 0), `is_last`
-  and `is_terminal` false; step T holds the observation after the last action, with `is_last` true,
+  episode, else 0), `discount` 1, `state` (1 + nq + nv,) float64 (kept as its bytes: TFDS stores
+  floats as float32), `is_first` (t = 0), and `is_last` and `is_terminal` false; step T holds the observation after the last action, with `is_last` true,
   `is_terminal` the episode's success, and zeros for action, reward, discount and state (RLDS's
   convention: a last step's action is not taken).
 - `episode_metadata`: `task`, `source` (0 for demonstrations, r for round r's exploration),
@@ -57,13 +57,13 @@ def _builder_class(tfds, features):
 
 
 def _features(tfds, ep: dict):
-  tensor = lambda x, dtype: tfds.features.Tensor(shape=np.shape(x)[1:], dtype=dtype)
+  tensor = lambda x, dtype, **kw: tfds.features.Tensor(shape=np.shape(x)[1:], dtype=dtype, **kw)
   step = dict(
     observation={k: tensor(v, np.float32) for k, v in ep["obs"].items()},
     action=tensor(ep["actions"], np.float32),
     reward=tfds.features.Scalar(dtype=np.float32),
     discount=tfds.features.Scalar(dtype=np.float32),
-    state=tensor(ep["states"], np.float64),
+    state=tensor(ep["states"], np.float64, encoding=tfds.features.Encoding.BYTES),  # (its float lists are float32)
     is_first=np.bool_,
     is_last=np.bool_,
     is_terminal=np.bool_,
