@@ -137,6 +137,10 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   # demonstrator's episodes from the start states of those (expert: an oracle), or nothing (none: the
   # control, which explores not at all).
   # round0_dir: where the shared round 0 lives ("" = <workdir>/../round0).
+  # Logging beside metrics.jsonl and TensorBoard (never part of the experiment: a run resumes with other
+  # settings here): wandb mirrors each phase's numbers, with the config and the commit, to the project
+  # `wandb_project` (WANDB_MODE=offline keeps it on disk, in <workdir>/wandb).
+  c.log = ml_collections.ConfigDict(dict(wandb=False, wandb_project="soe_jax"))
   c.rounds = ml_collections.ConfigDict(
     dict(num_rounds=3, select="first_success", length_cap=0.0, refit="continue", refit_steps=10_000, refit_lr=0.0,
          refit_ema="restart", steered="successful", new_data="kept", round0_dir="")

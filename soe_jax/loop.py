@@ -294,7 +294,8 @@ def opened(config: ml_collections.ConfigDict, workdir: str, progress: bool = Tru
   says whether it starts, resumes or has finished. (`run`, and the benchmarks that run phases.)"""
   print(f"workdir {workdir}: {rundir.status(workdir, config)}", flush=True)
   run_dir = RunDir.create(workdir, config)
-  with runlog.RunLog(workdir) as log:
+  wandb = runlog.WandbLog(workdir, rundir.plain(config), config.log.wandb_project) if config.log.wandb else None
+  with runlog.RunLog(workdir, wandb) as log:
     exp = Experiment(config, run_dir, progress, log)
     try:
       yield exp

@@ -36,7 +36,7 @@ CONFIG_FILE = "config.json"
 SEEDS_FILE = "seeds.json"
 # Sections that do not change round 0 (so methods differing only there share it), and fields that
 # change neither its parameters nor its numbers (the fit's in-fit evaluations).
-NOT_ROUND0 = ("method", "explore", "rounds")
+NOT_ROUND0 = ("method", "explore", "rounds", "log")
 NOT_ROUND0_FIELDS = ("fit.eval_every", "fit.eval_states")
 # Fields added since configs were first saved, with the value that does what a config without them
 # did: a saved config lacking one reads as having that value.
@@ -49,7 +49,11 @@ ADDED = {
   "rounds.new_data": "kept",
   "rounds.length_cap": 0.0,
   "data.filter_key": "",
+  "log.wandb": False,
+  "log.wandb_project": "soe_jax",
 }
+# Sections a run may resume with other settings in: they change how it is logged, not what it does.
+NOT_COMPARED = ("log.",)
 # Strategy settings added since, likewise: strategy -> {setting: the value that does what its absence did}.
 ADDED_SETTINGS = {"soe": {"hold": 1}}
 # Fields of configs saved before they moved: old name -> new name ("a.b." is a whole section).
@@ -124,7 +128,8 @@ def check_renamed(saved: dict, path: str) -> None:
 
 def check_config(workdir: str, config: ml_collections.ConfigDict) -> None:
   """Save the config in a new workdir; refuse one that differs from a workdir's saved config, except
-  for more `rounds.num_rounds` (extending a finished run, e.g. after steering its last round)."""
+  for more `rounds.num_rounds` (extending a finished run, e.g. after steering its last round) and
+  the logging settings (`NOT_COMPARED`)."""
   path = os.path.join(workdir, CONFIG_FILE)
   current = plain(config)
   if not os.path.exists(path):
@@ -136,7 +141,7 @@ def check_config(workdir: str, config: ml_collections.ConfigDict) -> None:
   extended = current["rounds"]["num_rounds"] > saved["rounds"]["num_rounds"]
   if extended:
     saved["rounds"]["num_rounds"] = current["rounds"]["num_rounds"]
-  diff = config_diff(saved, current)
+  diff = [d for d in config_diff(saved, current) if not d.startswith(NOT_COMPARED)]
   if diff:
     raise UserError(
       f"the config does not match the one saved in {path}; differing fields:\n  "
@@ -180,7 +185,8 @@ def default_workdir(config: ml_collections.ConfigDict, spec: str) -> str:
   """runs/<task>-<method>-seed<k>, and `-<hash>` of the fields (other than the seed) in which `config`
   differs from what the config file `spec` (`configs/<task>.py[:PRESETS]`) gives, so the same command
   names the same run and runs differing only by an override do not collide."""
-  diff = [d for d in config_diff(plain(configfile.load(spec)), plain(config)) if not d.startswith("seed:")]
+  diff = config_diff(plain(configfile.load(spec)), plain(config))
+  diff = [d for d in diff if not d.startswith(("seed:",) + NOT_COMPARED)]
   name = f"{config.env.task}-{config.method}-seed{config.seed}"
   if diff:
     name += "-" + hashlib.sha1("\n".join(diff).encode()).hexdigest()[:6]

@@ -96,14 +96,16 @@ def line(record: dict, method: str) -> dict:
 
 class RunLog:
   """The log of the run in `workdir`, as a context manager; `once` writes a phase's line unless an
-  earlier (interrupted) run of the same workdir already did."""
+  earlier (interrupted) run of the same workdir already did. With `wandb` (`config.log.wandb`), each
+  line also goes to a wandb run (`WandbLog`)."""
 
-  def __init__(self, workdir: str):
+  def __init__(self, workdir: str, wandb: WandbLog | None = None):
     from tensorboardX import SummaryWriter
 
     self.path = os.path.join(workdir, "metrics.jsonl")
     self.logged = {(m["round"], m["phase"]) for m in read_metrics(workdir)}
     self.writer = SummaryWriter(os.path.join(workdir, "tb"))
+    self.wandb = wandb
 
   def __enter__(self) -> RunLog:
     return self
@@ -126,10 +128,56 @@ class RunLog:
       if isinstance(v, (int, float)) and not isinstance(v, bool) and k != "round":
         self.writer.add_scalar(f"{record['phase']}/{k}", v, record["round"])
     self.writer.flush()
+    if self.wandb is not None:
+      self.wandb.log(record)
     print(summary_line(record), flush=True)
 
   def close(self) -> None:
     self.writer.close()
+    if self.wandb is not None:
+      self.wandb.close()
+
+
+class WandbLog:
+  """A wandb run for the run in `workdir`: named after the workdir, with the config and the commit
+  as its config, resumed by the id it saved there (so an interrupted run continues the same wandb
+  run); each phase's numbers logged at step = its round. wandb's own settings hold (WANDB_MODE=offline:
+  on disk only, under <workdir>/wandb; WANDB_DIR, WANDB_ENTITY, ...)."""
+
+  ID_FILE = "wandb_id.txt"
+
+  def __init__(self, workdir: str, config: dict, project: str):
+    import uuid
+
+    import wandb
+
+    from soe_jax import provenance
+
+    id_path = os.path.join(workdir, self.ID_FILE)
+    if not os.path.exists(id_path):
+      with open(id_path, "w") as f:
+        f.write(uuid.uuid4().hex[:12])
+    with open(id_path) as f:
+      run_id = f.read().strip()
+    self.run = wandb.init(
+      project=project,
+      dir=os.environ.get("WANDB_DIR", workdir),
+      name=os.path.basename(os.path.abspath(workdir)),
+      id=run_id,
+      resume="allow",
+      config=dict(config, commit=provenance.commit()),
+    )
+
+  def log(self, record: dict) -> None:
+    numbers = {
+      f"{record['phase']}/{k}": v
+      for k, v in record.items()
+      if isinstance(v, (int, float)) and not isinstance(v, bool) and k != "round"
+    }
+    self.run.log(numbers, step=int(record["round"]))
+
+  def close(self) -> None:
+    self.run.finish()
 
 
 def _duration(seconds: float) -> str:

@@ -4,6 +4,8 @@ counts and rates, the horizons' relation, and the demonstration file. `check(con
 
 from __future__ import annotations
 
+import importlib.util
+
 import ml_collections
 import numpy as np
 
@@ -81,6 +83,8 @@ def problems(config: ml_collections.ConfigDict) -> list[str]:
     )
   if config.data.capacity < config.data.num_demos:
     out.append(f"data.capacity ({config.data.capacity}) must hold data.num_demos ({config.data.num_demos})")
+  if config.log.wandb and importlib.util.find_spec("wandb") is None:
+    out.append("log.wandb needs wandb, which is not installed: pip install -e '.[wandb]'")
   if config.data.hdf5_path and not out:
     out += _demonstration_file(config)
   return out

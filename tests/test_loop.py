@@ -285,6 +285,23 @@ def test_a_filter_key_takes_the_episodes_of_its_mask(smoke_run, tmp_path):
   assert not os.path.exists(tmp_path / "run")
 
 
+def test_logging_settings_neither_block_a_resume_nor_rename_a_run_and_wandb_must_be_installed(
+  smoke_run, tmp_path, monkeypatch
+):
+  import importlib.util
+
+  _, config, workdir, _ = smoke_run
+  logged = lift_config.get_config("smoke,soe")
+  logged.log.wandb = True
+  rundir.check_config(workdir, logged)  # no mismatch: logging is not part of the run
+  assert rundir.default_workdir(logged, "configs/lift.py:smoke,soe") == os.path.join("runs", "lift-soe-seed0")
+  find_spec = importlib.util.find_spec
+  monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "wandb" else find_spec(name, *a))
+  with pytest.raises(UserError, match=r"log.wandb needs wandb, which is not installed: pip install -e '.\[wandb\]'"):
+    loop.run(logged, str(tmp_path / "run"), progress=False)
+  assert not os.path.exists(tmp_path / "run")
+
+
 def test_the_same_command_names_the_same_workdir_and_says_it_resumes(smoke_run, tmp_path):
   _, config, workdir, _ = smoke_run
   spec = "configs/lift.py:smoke,soe"
