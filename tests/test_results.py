@@ -51,7 +51,7 @@ def test_latent_records_get_effective_dimensions_and_exploration_paired_with_the
   (tmp_path / "01.json").write_text(json.dumps(record(1.0, [3.0, -1.0, 5.0], [1, 1, 0, 0])))
   (tmp_path / "02.json").write_text(json.dumps(record(0.25, [-2.0, 1.0, -1.0], [0, 1, 1, 1])))
   rows = results.table(str(tmp_path)).splitlines()[2:]
-  assert rows[0].startswith("| 01 | - | abc | 2 [2, 0] | 5.0 dB | 50.0%") and rows[0].endswith("| 0 / 0 (p=1.000) |")
+  assert rows[0].startswith("| 01 | - | abc | 2 [2, 0] | 5.0 dB | 50.0%") and rows[0].endswith("| - |")
   assert rows[1].startswith("| 02 | policy.bypass.batch_fraction=0.25 | abc | 1 [1] | 1.0 dB | 75.0%")
   assert rows[1].endswith("| 2 / 1 (p=1.000) |") and len(rows) == 2  # one task, size and seed: no summary
 
@@ -70,7 +70,8 @@ def test_latent_records_of_tasks_sizes_and_seeds_get_their_effective_dimensions_
     "c": ("can", 32, 0, [1, 2, 3]),
   }.items():
     (tmp_path / f"{name}.json").write_text(json.dumps(record(*args)))
-  summary = results.table(str(tmp_path)).split("\n\n")[1].splitlines()
+  latent, summary = (part.splitlines() for part in results.table(str(tmp_path)).split("\n\n"))
+  assert all(row.endswith("| - |") for row in latent[2:])  # each the first of its task and seed: unpaired
   assert summary[2:] == [
     "| can | 32 | 1 | seed 0: 3 | 3 | 8 |",
     "| lift | 16 | 2 | seed 0: 2, seed 1: 1 | 1.5 ± 0.7 | 8 |",
