@@ -146,7 +146,7 @@ def figure(rows: list[dict], path: str) -> None:
       style = dict(color=color, linestyle="--" if name == "control" else "-", marker="o")
       sr = 100 * _per_seed(row, "success_per_round", rounds)
       mean, std = sr.mean(axis=0), sr.std(axis=0, ddof=1) if len(sr) > 1 else np.zeros(len(rounds))
-      ax_sr.plot(rounds, mean, label=f"{name} ({row['seeds']} seeds)", **style)
+      ax_sr.plot(rounds, mean, label=f"{name} ({row['seeds']} seed{'s' if row['seeds'] > 1 else ''})", **style)
       ax_sr.fill_between(rounds, mean - std, mean + std, color=color, alpha=0.15)
       explored = [r for r in rounds if r > 0]
       if name != "control":
