@@ -115,7 +115,9 @@ def claim(rows: list[dict], task: str) -> str | None:
     rounds = rounds_of(m[name])
     mean = np.nanmean(_per_seed(m[name], "success_per_round", rounds), axis=0)
     path = " -> ".join(f"{100 * x:.1f}" for x in mean)
-    parts.append(f"{name} {path}% ({'monotonic' if improves_monotonically(m[name]) else 'not monotonic'})")
+    parts.append(
+      f"{name} {path}% ({'improves every round' if improves_monotonically(m[name]) else 'does not improve every round'})"
+    )
   vs = " (against " + ", ".join(others) + ")" if others else " (no dp or sime runs to compare)"
   return (
     f"Only SOE improves monotonically over rounds{vs}: {'reproduced' if verdict else 'not reproduced'}; "
