@@ -73,7 +73,17 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   c = ml_collections.ConfigDict()
   c.seed = 0
   c.method = "soe"
-  c.env = ml_collections.ConfigDict(dict(task=task, backend="auto", action_mode="absolute", episode_length=400))
+  c.env = ml_collections.ConfigDict(
+    dict(
+      task=task,
+      backend="auto",
+      mjx_impl="auto",
+      mjx_max_batch=8192,
+      mjx_settings="",
+      action_mode="absolute",
+      episode_length=400,
+    )
+  )
   c.data = ml_collections.ConfigDict(
     dict(num_demos=num_demos, demo_seed=1000, hdf5_path="", filter_key="", max_length=400, capacity=2048)
   )

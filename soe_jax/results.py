@@ -54,6 +54,10 @@ def table(study: str) -> str:
     from soe_jax import kept
 
     return kept.table([run for _, r in records for run in r["runs"]])
+  if all("mjx" in r for _, r in records):  # python -m soe_jax.bench mjx
+    from soe_jax.bench import mjx
+
+    return mjx.table(records)
   if all("check" in r for _, r in records):
     return convergence_table(records)
   if all("latent" in r for _, r in records):
@@ -219,8 +223,9 @@ def regenerate(text: str) -> str:
     out.append(lines[i])
     if m := _BEGIN.match(lines[i].rstrip("\n")):
       end = next((j for j in range(i + 1, len(lines)) if lines[j].rstrip("\n") == _END), None)
-      if end is None:
-        raise ValueError(f"'{lines[i].strip()}' has no '{_END}' after it")
+      begin = next((j for j in range(i + 1, end or len(lines)) if _BEGIN.match(lines[j].rstrip("\n"))), None)
+      if end is None or begin is not None:  # an unclosed marker would swallow the text up to the next table's end
+        raise ValueError(f"'{lines[i].strip()}' has no '{_END}' after it before the next table")
       out += [table(m.group(1)), lines[end]]
       i = end
     i += 1

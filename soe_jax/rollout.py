@@ -120,6 +120,7 @@ def _run_slice(env, agent: Agent, strategy, reset_keys, key, decisions_per_call,
     n = min(decisions_per_call, total - decided)
     carry, (rec, aux) = decisions_fn(env, strategy, ta, n)(carry, agent, key)
     rec, aux = jax.device_get((rec, aux))
+    env.physics.check(carry.state.pipeline_state)  # MuJoCo Warp: lost contacts are an error
     records.append(jax.tree.map(lambda x: x.reshape((-1,) + x.shape[2:]), rec))  # (steps, B, ...)
     auxes.append(aux)
     decided += n

@@ -37,7 +37,7 @@ SEEDS_FILE = "seeds.json"
 # Sections that do not change round 0 (so methods differing only there share it), and fields that
 # change neither its parameters nor its numbers (the fit's in-fit evaluations).
 NOT_ROUND0 = ("method", "explore", "rounds", "log")
-NOT_ROUND0_FIELDS = ("fit.eval_every", "fit.eval_states")
+NOT_ROUND0_FIELDS = ("fit.eval_every", "fit.eval_states", "env.mjx_max_batch")
 # Fields added since configs were first saved, with the value that does what a config without them
 # did: a saved config lacking one reads as having that value.
 ADDED = {
@@ -51,9 +51,12 @@ ADDED = {
   "data.filter_key": "",
   "log.wandb": False,
   "log.wandb_project": "soe_jax",
+  "env.mjx_impl": "auto",
+  "env.mjx_max_batch": 8192,
+  "env.mjx_settings": "",
 }
 # Sections a run may resume with other settings in: they change how it is logged, not what it does.
-NOT_COMPARED = ("log.",)
+NOT_COMPARED = ("log.", "env.mjx_max_batch")
 # Strategy settings added since, likewise: strategy -> {setting: the value that does what its absence did}.
 ADDED_SETTINGS = {"soe": {"hold": 1}}
 # Fields of configs saved before they moved: old name -> new name ("a.b." is a whole section).

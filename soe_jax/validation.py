@@ -22,7 +22,7 @@ REFIT_EMA = ("restart", "carry")  # a continued re-fit's EMA
 STEERED = ("successful", "all")  # which steered episodes a fit takes
 NEW_DATA = ("kept", "expert", "none")  # what a round adds to the data
 # Fields that count something: at least 1.
-POSITIVE = ("env.episode_length", "data.num_demos", "data.capacity", "data.max_length", "policy.n_obs_steps",
+POSITIVE = ("env.episode_length", "env.mjx_max_batch", "data.num_demos", "data.capacity", "data.max_length", "policy.n_obs_steps",
             "policy.horizon", "policy.n_action_steps", "fit.num_steps", "fit.batch_size", "fit.chunk_size",
             "fit.eval_states", "rollout.decisions_per_call", "explore.num_start_states", "explore.tries",
             "eval.num_start_states", "rounds.refit_steps")  # fmt: skip
@@ -56,6 +56,8 @@ def problems(config: ml_collections.ConfigDict) -> list[str]:
   name(env_registry.TASKS.check, config.env.task)
   if config.env.backend != "auto":
     name(physics.resolve_backend, config.env.backend)
+  name(physics.check_mjx_impl, config.env.mjx_impl, config.env.backend)
+  name(physics.parse_settings, config.env.mjx_settings, {})
   name(controller.action_size, config.env.action_mode)
   name(policy_registry.HEADS.check, config.policy.head.name)
   name(policy_registry.ENCODERS.check, config.policy.encoder.name)

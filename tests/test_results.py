@@ -88,6 +88,8 @@ def test_generated_tables_are_rewritten_between_their_markers(tmp_path, monkeypa
   assert "| stale |" not in new and "| 01_a | x | aaa |" in new and results.regenerate(new) == new
   with pytest.raises(ValueError, match="has no '<!-- /table -->'"):
     results.regenerate("<!-- table: study -->\n| x |\n")
+  with pytest.raises(ValueError, match="before the next table"):  # not swallowing the next table's text
+    results.regenerate("<!-- table: study -->\nprose\n<!-- table: study -->\n<!-- /table -->\n")
 
 
 def test_the_docs_tables_are_the_ones_their_committed_results_give(monkeypatch):

@@ -1,6 +1,7 @@
 """Benchmarks, each printing one JSON object as its last line.
 
-python -m soe_jax.bench env --task=square --num_envs=256 [--backend=mujoco|mjx] [--num_envs=1 --unbatched]
+python -m soe_jax.bench env --task=square --num_envs=256 [--backend=mujoco|mjx --mjx_impl=jax|warp] [--num_envs=1 --unbatched]
+python -m soe_jax.bench mjx --task=lift --mjx_impl=warp --num_envs=200 [--out=results/mjx/lift-warp.json]
 python -m soe_jax.bench fit --config=configs/square.py [--bypass=on|off] [--ema=on|off]
 python -m soe_jax.bench sample --config=configs/square.py --batch=1 --steps=10
 python -m soe_jax.bench rollout --config=configs/lift.py:cpu --strategy=soe --num_envs=100
@@ -19,8 +20,10 @@ from ml_collections import config_flags
 from soe_jax import cli
 
 flags.DEFINE_string("task", "lift", "Task name (env).")
-flags.DEFINE_integer("num_envs", 64, "Batch of environments (env).")
+flags.DEFINE_integer("num_envs", 64, "Batch of environments (env, rollout; mjx: demonstrations).")
 flags.DEFINE_string("backend", "auto", "Physics backend: auto, mujoco or mjx (env).")
+flags.DEFINE_string("mjx_impl", "auto", "env / mjx: MJX's implementation, auto, jax or warp.")
+flags.DEFINE_string("mjx_settings", "", "env / mjx: MJX's solver options ('' the task's, engine, or name=value,...).")
 flags.DEFINE_bool("unbatched", False, "env: one environment stepped without vmap.")
 flags.DEFINE_integer(
   "steps",
@@ -46,14 +49,14 @@ flags.DEFINE_integer("windows", 4096, "latent: observation histories of the roun
 flags.DEFINE_string(
   "workdir", None, "converge / latent: its run directory (default runs/<benchmark>/<round-0 key>...)."
 )
-flags.DEFINE_string("out", None, "converge / latent: also write the result record (for results/) here.")
-flags.DEFINE_bool("progress", True, "converge / latent: progress bars.")
+flags.DEFINE_string("out", None, "mjx / converge / latent: also write the result record (for results/) here.")
+flags.DEFINE_bool("progress", True, "mjx / converge / latent: progress bars.")
 config_flags.DEFINE_config_file(
   "config", None, "fit / sample / rollout / converge / latent: configs/<task>.py[:PRESETS].", lock_config=True
 )
 FLAGS = flags.FLAGS
 
-BENCHMARKS = ("env", "fit", "sample", "rollout", "converge", "latent")
+BENCHMARKS = ("env", "mjx", "fit", "sample", "rollout", "converge", "latent")
 
 
 def main(argv):
@@ -69,7 +72,23 @@ def main(argv):
   if what == "env":
     from soe_jax.bench import env
 
-    result = env.run(FLAGS.task, FLAGS.num_envs, FLAGS.backend, FLAGS.steps, FLAGS.repeats or 3, FLAGS.unbatched)
+    result = env.run(
+      FLAGS.task,
+      FLAGS.num_envs,
+      FLAGS.backend,
+      FLAGS.steps,
+      FLAGS.repeats or 3,
+      FLAGS.unbatched,
+      FLAGS.mjx_impl,
+      FLAGS.mjx_settings,
+    )
+  elif what == "mjx":
+    from soe_jax.bench import experiment, mjx
+
+    result = mjx.run(FLAGS.task, FLAGS.mjx_impl, FLAGS.num_envs, FLAGS.mjx_settings, progress=FLAGS.progress)
+    if FLAGS.out:
+      experiment.write_record(result, FLAGS.out)
+    result = result["mjx"]
   elif what == "fit":
     from soe_jax.bench import policy
 

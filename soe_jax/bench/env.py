@@ -26,12 +26,19 @@ def _motion(obs0, t):
 
 
 def run(
-  task: str, num_envs: int, backend: str = "auto", steps: int | None = None, repeats: int = 3, unbatched: bool = False
+  task: str,
+  num_envs: int,
+  backend: str = "auto",
+  steps: int | None = None,
+  repeats: int = 3,
+  unbatched: bool = False,
+  mjx_impl: str = "auto",
+  mjx_settings: str = "",
 ) -> dict:
   """`unbatched`: one environment stepped without `vmap` (MJX on a CPU is much slower under vmap)."""
   if unbatched and num_envs != 1:
     raise ValueError(f"unbatched runs one environment; got num_envs={num_envs}")
-  env = make_env(task, backend=backend)
+  env = make_env(task, backend=backend, mjx_impl=mjx_impl, mjx_max_batch=num_envs, mjx_settings=mjx_settings)
   steps = steps or (20 if env.backend == "mujoco" else 2)
   if unbatched:
     state = jax.jit(env.reset)(jax.random.PRNGKey(0))
@@ -60,11 +67,14 @@ def run(
     state = compiled(state, (r + 1) * steps)
   jax.block_until_ready(state)
   total = time.perf_counter() - t
+  physics.check(state.pipeline_state)
   n = num_envs * steps * repeats
   result = dict(
     task=task,
     num_envs=num_envs,
     backend=env.backend,
+    mjx_impl=getattr(physics, "impl", None),
+    mjx_settings=getattr(physics, "settings", None),
     unbatched=unbatched,
     control_steps_per_s=round(n / total, 2),
     physics_steps_per_s=round(n * env.config.nsubsteps / total, 1),

@@ -55,6 +55,9 @@ def base_config() -> ml_collections.ConfigDict:
   return ml_collections.ConfigDict(
     dict(
       backend="auto",  # auto | mujoco | mjx
+      mjx_impl="auto",  # MJX's implementation: auto (warp on a CUDA GPU with warp-lang) | jax | warp
+      mjx_max_batch=8192,  # the most environments stepped together on MJX-Warp (sizes its contacts)
+      mjx_settings="",  # MJX's solver options: "" the task's, engine, or iterations=10,ls_iterations=8,cone=pyramidal
       action_mode="absolute",  # absolute (10-d) | delta (7-d)
       nsubsteps=25,  # physics substeps per 20 Hz control step
       episode_length=400,  # control steps: robomimic's evaluation horizon for lift / can / square
@@ -92,6 +95,12 @@ class ManipulationEnv(Env):
   # (kind, size) of the `object` vector's parts: pos, quat (world frame), rel_quat (in the eef frame).
   object_layout: tuple = ()
   agentview: dict = AGENTVIEW
+  # The accelerator scene: MJX's own solver options (MuJoCo Playground's Panda tasks use 5 / 8 and
+  # pyramidal cones; the C engine keeps the scene's 100 / 50, elliptic), and MuJoCo Warp's buffers
+  # per environment, sized at least 1.5x the most any demonstration state uses (`bench mjx`, a test).
+  mjx_settings: dict = {"iterations": 10, "ls_iterations": 8, "cone": "pyramidal"}
+  mjx_contacts: int = 32
+  mjx_constraints: int = 256
 
   def __init__(self, config: ml_collections.ConfigDict | None = None):
     self.config = config if config is not None else self.default_config()
@@ -103,7 +112,18 @@ class ManipulationEnv(Env):
     self.hand_reference = np.asarray(
       rotations.mat_to_quat_wxyz(self.kin.forward(jnp.asarray(panda.INIT_QPOS))["hand_rot"])
     )
-    self.physics = physics.make_backend(self.config.backend, self.mj_model, self.config.nsubsteps)
+    self.physics = physics.make_backend(
+      self.config.backend,
+      self.mj_model,
+      self.config.nsubsteps,
+      mjx_options=dict(
+        impl=self.config.mjx_impl,
+        settings=physics.parse_settings(self.config.mjx_settings, self.mjx_settings),
+        contacts=self.mjx_contacts,
+        constraints=self.mjx_constraints,
+        max_batch=self.config.mjx_max_batch,
+      ),
+    )
     self.episode_length = int(self.config.episode_length)
 
   @classmethod

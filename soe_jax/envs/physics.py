@@ -13,6 +13,7 @@ code, so the same task runs on either.
 
 from __future__ import annotations
 
+import copy
 import logging
 import os
 import threading
@@ -45,26 +46,113 @@ def resolve_backend(name: str) -> str:
   return name
 
 
-def make_backend(name: str, model: mujoco.MjModel, nsubsteps: int):
-  """Backend `name` (`auto`, `mujoco` or `mjx`) for `model`."""
-  return BACKENDS.make(resolve_backend(name), model, nsubsteps)
+MJX_IMPLS = ("jax", "warp")
+
+
+def warp_installed() -> bool:
+  try:
+    import warp  # noqa: F401
+  except ImportError:
+    return False
+  return True
+
+
+def has_cuda_device() -> bool:
+  try:
+    return any("cuda" in d.client.platform_version.lower() for d in jax.devices("gpu"))
+  except RuntimeError:  # no GPU backend
+    return False
+
+
+def resolve_mjx_impl(name: str) -> str:
+  """`auto` is MuJoCo Warp on a CUDA GPU when warp-lang is installed, MJX's pure-JAX implementation
+  otherwise; `warp` without warp-lang is an error that says how to install it."""
+  if name == "auto":
+    return "warp" if has_cuda_device() and warp_installed() else "jax"
+  if name not in MJX_IMPLS:
+    raise ValueError(f"unknown MJX implementation {name!r}; known MJX implementations: auto, {', '.join(MJX_IMPLS)}")
+  if name == "warp" and not warp_installed():
+    raise ValueError(
+      "env.mjx_impl='warp' needs warp-lang: pip install 'soe_jax[gpu]' (mujoco-mjx[warp]), or use env.mjx_impl=jax"
+    )
+  return name
+
+
+def check_mjx_impl(name: str, backend: str) -> None:
+  """Refuse an unknown MJX implementation, and `warp` without warp-lang where MJX would run."""
+  if name != "auto" and name not in MJX_IMPLS:
+    raise ValueError(f"unknown MJX implementation {name!r}; known MJX implementations: auto, {', '.join(MJX_IMPLS)}")
+  if backend in ("auto", *BACKENDS.names()) and resolve_backend(backend) == "mjx":
+    resolve_mjx_impl(name)
+
+
+def make_backend(name: str, model: mujoco.MjModel, nsubsteps: int, mjx_options: dict | None = None):
+  """Backend `name` (`auto`, `mujoco` or `mjx`) for `model`; `mjx_options` are `MjxBackend`'s keyword
+  arguments, used only when the backend is MJX."""
+  name = resolve_backend(name)
+  return BACKENDS.make(name, model, nsubsteps, **((mjx_options or {}) if name == "mjx" else {}))
+
+
+# MuJoCo Warp's overflow bits that mean lost contacts or constraints (solver iteration limits are not).
+WARP_LOSSES = {
+  1: "constraints (njmax)",
+  2: "nonzeros (njmax_nnz)",
+  4: "contacts (broadphase)",
+  8: "contacts (narrowphase)",
+  16: "CCD contacts",
+  128: "active DOFs (nvmax)",
+  256: "EPA horizon",
+}
 
 
 class MjxBackend:
-  """Substeps as a `lax.scan` of `mjx.step`, vmappable and differentiable."""
+  """Substeps as a `lax.scan` of `mjx.step`, vmappable; `impl` is MJX's implementation (`jax`, `warp`
+  or `auto`).
+
+  `settings` override the model's solver options for MJX alone (`iterations`, `ls_iterations`,
+  `cone`: the accelerator's scene, `ManipulationEnv.mjx_settings`); the C engine keeps the scene's.
+  MuJoCo Warp preallocates its contacts for all environments together and its constraints per
+  environment: `contacts` per environment times `max_batch` environments, and `constraints` rows per
+  environment; `check(state)` raises if a step ran out of either (Warp drops what does not fit).
+  """
 
   name = "mjx"
 
-  def __init__(self, model: mujoco.MjModel, nsubsteps: int):
+  def __init__(
+    self,
+    model: mujoco.MjModel,
+    nsubsteps: int,
+    impl: str = "jax",
+    settings: dict | None = None,
+    contacts: int = 32,
+    constraints: int = 256,
+    max_batch: int = 8192,
+  ):
     from mujoco import mjx  # imported lazily: it is heavy and only this backend needs it
 
     self._mjx = mjx
     self.model = model
     self.nsubsteps = nsubsteps
-    self.mjx_model = mjx.put_model(model)
+    self.impl = resolve_mjx_impl(impl)
+    if self.impl == "warp":
+      import warp
+
+      warp.config.quiet = True  # no line per kernel module loaded
+    self.settings = dict(settings or {})
+    self.sim_model = apply_settings(model, self.settings)
+    self.max_batch, self.contacts, self.constraints = int(max_batch), int(contacts), int(constraints)
+    self.mjx_model = mjx.put_model(self.sim_model, impl=self.impl)
+    if self.impl == "warp":
+      # Warp prints a line each step that reaches an iteration cap; only losses are worth one.
+      self.mjx_model = self.mjx_model.tree_replace({"opt._impl.warn_overflow": sum(WARP_LOSSES)})
+      self._template = mjx.make_data(
+        self.sim_model, impl="warp", naconmax=self.contacts * self.max_batch, njmax=self.constraints
+      )
+    else:
+      self._template = mjx.make_data(self.mjx_model)
 
   def init(self, qpos: jax.Array, qvel: jax.Array) -> PhysicsState:
-    d = self._mjx.make_data(self.mjx_model).replace(qpos=qpos, qvel=qvel)
+    d = self._template.replace(qpos=qpos, qvel=qvel)
     d = self._mjx.forward(self.mjx_model, d)
     return PhysicsState(qpos=d.qpos, qvel=d.qvel, raw=d)
 
@@ -77,6 +165,32 @@ class MjxBackend:
     d, _ = jax.lax.scan(substep, d, None, length=self.nsubsteps)
     return PhysicsState(qpos=d.qpos, qvel=d.qvel, raw=d)
 
+  def where(self, done: jax.Array, reset: PhysicsState, state: PhysicsState) -> PhysicsState:
+    """`reset` where `done`, else `state`, for one environment (inside `vmap`: `done` is a scalar);
+    Warp's buffers shared by all environments stay `state`'s."""
+    return PhysicsState(
+      qpos=jnp.where(done, reset.qpos, state.qpos),
+      qvel=jnp.where(done, reset.qvel, state.qvel),
+      raw=state.raw.where(done, reset.raw),
+    )
+
+  def check(self, state: PhysicsState) -> None:
+    """Raise if any environment of a batched state ran out of Warp's preallocated contacts or
+    constraints (Warp's overflow bits are sticky); nothing to check for MJX-JAX."""
+    if self.impl != "warp":
+      return
+    batch = int(np.prod(state.qpos.shape[:-1]))
+    if batch > self.max_batch:
+      raise ValueError(f"{batch} environments in one batch, more than env.mjx_max_batch={self.max_batch}")
+    bits = np.bitwise_or.reduce(np.asarray(jax.device_get(state.raw._impl.overflow)).reshape(-1))
+    lost = [what for bit, what in WARP_LOSSES.items() if bits & bit]
+    if lost:
+      raise RuntimeError(
+        f"MuJoCo Warp ran out of preallocated {', '.join(lost)} (contacts {self.contacts} per environment for "
+        f"{self.max_batch} environments, constraints {self.constraints} per environment); raise the task's "
+        "mjx_contacts / mjx_constraints"
+      )
+
   def sim_state(self, state: PhysicsState) -> jax.Array:
     """What a rollout records for robomimic's `states`: [time, qpos, qvel] (..., 1 + nq + nv), in MJX's
     own float32."""
@@ -86,6 +200,41 @@ class MjxBackend:
   def sim_state_float64(self, recorded) -> np.ndarray:
     """Recorded `sim_state`s on the host -> (..., 1 + nq + nv) float64 (exactly MJX's values)."""
     return np.asarray(recorded, np.float64)
+
+
+SETTINGS = {"iterations": int, "ls_iterations": int, "cone": str}
+CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
+
+
+def parse_settings(text: str, task_default: dict) -> dict:
+  """`env.mjx_settings`: "" is the task's own, `engine` the C engine's (none replaced), else
+  comma-separated `name=value` (`iterations=10,ls_iterations=8,cone=pyramidal`)."""
+  if text == "":
+    return dict(task_default)
+  if text == "engine":
+    return {}
+  out = {}
+  for item in text.split(","):
+    name, _, value = item.strip().partition("=")
+    if name not in SETTINGS or not value:
+      raise ValueError(
+        f"bad env.mjx_settings item {item!r}; known settings: {', '.join(SETTINGS)} (name=value), or '' or engine"
+      )
+    try:
+      out[name] = SETTINGS[name](value)
+    except ValueError:
+      raise ValueError(f"bad env.mjx_settings item {item!r}: {name} takes an integer") from None
+  if out.get("cone", "pyramidal") not in CONES:
+    raise ValueError(f"unknown cone {out['cone']!r}; known cones: {', '.join(CONES)}")
+  return out
+
+
+def apply_settings(model: mujoco.MjModel, settings: dict) -> mujoco.MjModel:
+  """A copy of `model` with the solver options `settings` names replaced (`SETTINGS`)."""
+  m = copy.deepcopy(model)
+  for k, v in settings.items():
+    setattr(m.opt, k, CONES[v] if k == "cone" else v)
+  return m
 
 
 class MujocoBackend:
@@ -188,6 +337,13 @@ class MujocoBackend:
       self._host_step, shapes, state.raw, ctrl.astype(jnp.float32), vmap_method="broadcast_all"
     )
     return PhysicsState(qpos=qpos, qvel=qvel, raw=bits)
+
+  def where(self, done: jax.Array, reset: PhysicsState, state: PhysicsState) -> PhysicsState:
+    """`reset` where `done`, else `state`, for one environment (inside `vmap`)."""
+    return jax.tree.map(lambda r, s: jnp.where(done, r, s), reset, state)
+
+  def check(self, state: PhysicsState) -> None:
+    """Nothing to check: the C engine allocates contacts as it needs them."""
 
   def sim_state(self, state: PhysicsState) -> jax.Array:
     """What a rollout records for robomimic's `states`: the engine's float64 [time, qpos, qvel], the

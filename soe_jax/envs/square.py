@@ -34,6 +34,8 @@ class Square(manipulation.ManipulationEnv):
   name = "square"
   base_pos = (-0.56, 0.0, 0.912)
   object_dim = 14
+  mjx_contacts = 64  # the nut's boxes on the peg and the table: up to 28 in the demonstrations
+  mjx_constraints = 384
   object_layout = (("pos", 3), ("quat", 4), ("pos", 3), ("rel_quat", 4))
 
   def _assets_mjcf(self) -> str:

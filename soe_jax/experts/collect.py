@@ -71,6 +71,7 @@ def run_demos(
   for _ in range(num_chunks):
     carry, rec = run(carry)
     records.append(jax.device_get(rec))
+    env.physics.check(carry[0].pipeline_state)  # MuJoCo Warp: lost contacts are an error
     bar.update(chunk)
     if bool(jax.device_get(carry[2]).all()):
       bar.update(bar.total - bar.n)  # every episode has ended: the work is complete
