@@ -40,6 +40,7 @@ def test_every_round_and_method_is_evaluated_on_the_same_states_with_the_same_ke
   assert len(saved["explore"]["1"]) == config.explore.num_start_states * config.explore.tries
 
 
+@pytest.mark.slow
 def test_expert_data_trains_on_the_demonstrators_episodes_from_the_kept_states(smoke_run, tmp_path):
   import jax
 

@@ -409,7 +409,7 @@ def test_compare_explores_each_method_as_its_preset_from_the_shared_round0(smoke
   assert "| soe_steer |" in open(os.path.join(root, "compare", "compare.md")).read()
 
 
-@pytest.mark.parametrize("stop", ["periodic save", "SIGINT", "SIGTERM"])
+@pytest.mark.parametrize("stop", [pytest.param("periodic save", marks=pytest.mark.slow), "SIGINT", "SIGTERM"])
 def test_a_fit_interrupted_midway_resumes_to_the_same_parameters(smoke_run, tmp_path, monkeypatch, stop):
   """Stopped after the first chunk (step 20 of 40): by an exception right after the periodic save, or
   by a signal, which saves the fit itself (checkpoints off) and then stops."""
@@ -471,6 +471,7 @@ def test_the_next_fit_takes_only_successful_steered_episodes_unless_told(tmp_pat
   assert run.steered_sets(0) == [] and all(s.steered and s.source == 0 for s in run.steered_sets(1))
 
 
+@pytest.mark.slow
 def test_in_fit_evaluations_are_recorded_and_leave_the_fit_as_it_is(smoke_run, tmp_path):
   """`bench converge` on the smoke run's settings: round 0 with evaluations every 20 steps has the
   fixture's parameters (fitted without them), then the continuation and the paired check."""

@@ -9,7 +9,7 @@ from nbclient import NotebookClient
 NOTEBOOKS = os.path.join(os.path.dirname(__file__), "..", "notebooks")
 
 
-@pytest.mark.parametrize("name", ["latent_analysis.ipynb", "rounds.ipynb"])
+@pytest.mark.parametrize("name", [pytest.param("latent_analysis.ipynb", marks=pytest.mark.slow), "rounds.ipynb"])
 def test_notebook_runs_on_a_smoke_run(name, smoke_run, monkeypatch):
   root, _, workdir, _ = smoke_run
   monkeypatch.setenv("SOE_WORKDIR", workdir)

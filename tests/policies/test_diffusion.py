@@ -5,6 +5,7 @@ import math
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from soe_jax.policies import diffusion
 
@@ -64,6 +65,7 @@ def test_sampling_is_a_pure_function_of_the_key_and_calls_the_hook():
   assert len(calls) >= 1  # traced inside the scan: the hook is part of every denoising call
 
 
+@pytest.mark.slow  # trains for ~40 s
 def test_diffusion_head_samples_both_modes_of_a_bimodal_target():
   import optax
 
