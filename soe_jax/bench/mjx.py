@@ -43,8 +43,7 @@ def run(
                             progress=progress)  # fmt: skip
   demos_s = time.perf_counter() - t
   success = batch["success"]
-  valid = np.arange(batch["states"].shape[1])[None] < batch["length"][:, None]
-  usage = agreement.peak_usage(env.physics.sim_model, batch["states"][valid])
+  usage = agreement.peak_usage(env.physics.sim_model, batch["states"], batch["length"])
   physics = env.physics
   return dict(
     source,

@@ -48,11 +48,11 @@ def eef_paths(env, keys: jax.Array, steps: int = 50) -> np.ndarray:
   return np.asarray(path).swapaxes(0, 1)
 
 
-def peak_usage(model: mujoco.MjModel, states: np.ndarray) -> dict:
-  """The most contacts (`ncon`) and constraint rows (`nefc`) over recorded states (..., 1 + nq + nv)
-  [time, qpos, qvel] in `model`."""
+def peak_usage(model: mujoco.MjModel, states: np.ndarray, lengths: np.ndarray) -> dict:
+  """The most contacts (`ncon`) and constraint rows (`nefc`) in `model` over recorded episodes' states
+  (N, T, 1 + nq + nv) [time, qpos, qvel], each up to its length (N,) (later steps are padding)."""
   data = mujoco.MjData(model)
-  flat = np.asarray(states, np.float64).reshape(-1, states.shape[-1])
+  flat = np.asarray(states, np.float64)[np.arange(states.shape[1])[None] < np.asarray(lengths)[:, None]]
   nq = model.nq
   ncon = nefc = 0
   for s in flat:

@@ -80,9 +80,8 @@ def resolve_mjx_impl(name: str) -> str:
 
 def check_mjx_impl(name: str, backend: str) -> None:
   """Refuse an unknown MJX implementation, and `warp` without warp-lang where MJX would run."""
-  if name != "auto" and name not in MJX_IMPLS:
-    raise ValueError(f"unknown MJX implementation {name!r}; known MJX implementations: auto, {', '.join(MJX_IMPLS)}")
-  if backend in ("auto", *BACKENDS.names()) and resolve_backend(backend) == "mjx":
+  runs_mjx = backend in ("auto", *BACKENDS.names()) and resolve_backend(backend) == "mjx"
+  if name not in ("auto", *MJX_IMPLS) or runs_mjx:
     resolve_mjx_impl(name)
 
 
@@ -134,15 +133,14 @@ class MjxBackend:
     self.model = model
     self.nsubsteps = nsubsteps
     self.impl = resolve_mjx_impl(impl)
-    if self.impl == "warp":
-      import warp
-
-      warp.config.quiet = True  # no line per kernel module loaded
     self.settings = dict(settings or {})
     self.sim_model = apply_settings(model, self.settings)
     self.max_batch, self.contacts, self.constraints = int(max_batch), int(contacts), int(constraints)
     self.mjx_model = mjx.put_model(self.sim_model, impl=self.impl)
     if self.impl == "warp":
+      import warp
+
+      warp.config.quiet = True  # fewer lines per kernel module loaded
       # Warp prints a line each step that reaches an iteration cap; only losses are worth one.
       self.mjx_model = self.mjx_model.tree_replace({"opt._impl.warn_overflow": sum(WARP_LOSSES)})
       self._template = mjx.make_data(
