@@ -90,7 +90,7 @@ def test_steer_a_proposal_and_save_it_from_the_browser(page_server):
     assert page.inner_text("#step") == "0"  # a fresh episode after saving
     browser.close()
   # The frames were drawn by a child process: Mesa's LLVM never entered this one, which compiles XLA.
-  assert session.frames is not None and not _mapped("libLLVM")
+  assert session.frames.started and not _mapped("libLLVM")
   episodes, env_args = hdf5.read_episodes(path)
   assert len(episodes) == 1 and episodes[0]["actions"].shape == (steps, 10)
   assert episodes[0]["success"] is False  # a few steps of a smoke policy do not lift the cube

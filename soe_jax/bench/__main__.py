@@ -1,6 +1,7 @@
 """Benchmarks, each printing one JSON object as its last line.
 
 python -m soe_jax.bench env --task=square --num_envs=256 [--backend=mujoco|mjx --mjx_impl=jax|warp] [--num_envs=1 --unbatched]
+    [--obs_mode=image]
 python -m soe_jax.bench mjx --task=lift --mjx_impl=warp --num_envs=200 [--out=results/mjx/lift-warp.json]
 python -m soe_jax.bench fit --config=configs/square.py [--bypass=on|off] [--ema=on|off]
 python -m soe_jax.bench sample --config=configs/square.py --batch=1 --steps=10
@@ -25,6 +26,7 @@ flags.DEFINE_string("backend", "auto", "Physics backend: auto, mujoco or mjx (en
 flags.DEFINE_string("mjx_impl", "auto", "env / mjx: MJX's implementation, auto, jax or warp.")
 flags.DEFINE_string("mjx_settings", "", "env / mjx: MJX's solver options ('' the task's, engine, or name=value,...).")
 flags.DEFINE_bool("unbatched", False, "env: one environment stepped without vmap.")
+flags.DEFINE_string("obs_mode", "low_dim", "env: observations, low_dim or image (both cameras drawn every step).")
 flags.DEFINE_integer(
   "steps",
   None,
@@ -81,6 +83,7 @@ def main(argv):
       FLAGS.unbatched,
       FLAGS.mjx_impl,
       FLAGS.mjx_settings,
+      FLAGS.obs_mode,
     )
   elif what == "mjx":
     from soe_jax.bench import experiment, mjx

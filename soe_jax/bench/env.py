@@ -3,7 +3,9 @@
 The arm follows a smooth scripted motion (a 4 cm circle around its start pose, gripper cycling), so
 the IK, the servos and contacts all do real work. For the `mujoco` backend the time is split into
 physics (inside the C engine), host callback overhead (conversion, copies), IK and observations
-(each timed alone as the same compiled batch computation), and the remainder (scan, dispatch).
+(each timed alone as the same compiled batch computation), and the remainder (scan, dispatch). With
+`obs_mode="image"` every step also draws both cameras (`render`: the time in the renderer pool's
+callback, its share of the total, and the frames drawn per second).
 """
 
 from __future__ import annotations
@@ -34,11 +36,14 @@ def run(
   unbatched: bool = False,
   mjx_impl: str = "auto",
   mjx_settings: str = "",
+  obs_mode: str = "low_dim",
 ) -> dict:
   """`unbatched`: one environment stepped without `vmap` (MJX on a CPU is much slower under vmap)."""
   if unbatched and num_envs != 1:
     raise ValueError(f"unbatched runs one environment; got num_envs={num_envs}")
-  env = make_env(task, backend=backend, mjx_impl=mjx_impl, mjx_max_batch=num_envs, mjx_settings=mjx_settings)
+  env = make_env(
+    task, backend=backend, mjx_impl=mjx_impl, mjx_max_batch=num_envs, mjx_settings=mjx_settings, obs_mode=obs_mode
+  )
   steps = steps or (20 if env.backend == "mujoco" else 2)
   if unbatched:
     state = jax.jit(env.reset)(jax.random.PRNGKey(0))
@@ -62,12 +67,14 @@ def run(
   physics = env.physics
   if env.backend == "mujoco":
     physics.physics_seconds = physics.callback_seconds = 0.0
+  env.render_seconds = 0.0
   t = time.perf_counter()
   for r in range(repeats):
     state = compiled(state, (r + 1) * steps)
   jax.block_until_ready(state)
   total = time.perf_counter() - t
   physics.check(state.pipeline_state)
+  render_s = env.render_seconds
   n = num_envs * steps * repeats
   result = dict(
     task=task,
@@ -76,16 +83,25 @@ def run(
     mjx_impl=getattr(physics, "impl", None),
     mjx_settings=getattr(physics, "settings", None),
     unbatched=unbatched,
+    obs_mode=obs_mode,
     control_steps_per_s=round(n / total, 2),
     physics_steps_per_s=round(n * env.config.nsubsteps / total, 1),
     compile_s=round(compile_s, 2),
   )
+  if env.cameras:
+    result["render"] = dict(
+      share=round(render_s / total, 3),
+      frames_per_s=round(n * len(env.cameras) / render_s, 1),
+      processes=env.renderer.processes,
+    )
   if env.backend == "mujoco" and not unbatched:
-    result["split_s_per_1k_control_steps"] = _split(env, state, total, n, physics)
+    result["split_s_per_1k_control_steps"] = _split(env, state, total, n, physics, render_s)
+  if env.renderer is not None:
+    env.renderer.close()
   return result
 
 
-def _split(env, state, total, n, physics) -> dict:
+def _split(env, state, total, n, physics, render_s) -> dict:
   """Seconds per 1,000 control steps spent in each part of a step."""
   from soe_jax.envs import controller
 
@@ -96,11 +112,12 @@ def _split(env, state, total, n, physics) -> dict:
 
   def timed(fn, *args, reps=20):
     jax.block_until_ready(fn(*args))
+    drawn = env.render_seconds
     t = time.perf_counter()
     for _ in range(reps):
       out = fn(*args)
     jax.block_until_ready(out)
-    return (time.perf_counter() - t) / reps
+    return (time.perf_counter() - t - (env.render_seconds - drawn)) / reps  # the drawing is counted apart
 
   batch = qpos.shape[0]
   per_step = 1000.0 / batch  # batched steps per 1k control steps
@@ -108,6 +125,7 @@ def _split(env, state, total, n, physics) -> dict:
   obs_s = timed(obs, state.pipeline_state) * per_step
   phys_s = physics.physics_seconds / n * 1000
   cb_s = (physics.callback_seconds - physics.physics_seconds) / n * 1000
+  draw_s = render_s / n * 1000
   total_s = total / n * 1000
   return dict(
     total=round(total_s, 4),
@@ -115,5 +133,6 @@ def _split(env, state, total, n, physics) -> dict:
     callback_overhead=round(cb_s, 4),
     ik=round(ik_s, 4),
     observation=round(obs_s, 4),
-    other=round(total_s - phys_s - cb_s - ik_s - obs_s, 4),
+    render=round(draw_s, 4),
+    other=round(total_s - phys_s - cb_s - ik_s - obs_s - draw_s, 4),
   )

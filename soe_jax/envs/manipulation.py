@@ -10,7 +10,13 @@ Observations (`state.obs`, a dict with robomimic's key names):
   robot0_gripper_qpos (2)  finger slide positions (open ~ (0.04, -0.04))
   object (Lift 10, Can 14, Square 14)
 and extras for experts and metrics: robot0_joint_pos (7), robot0_eef_rot (9, grip-site rotation
-matrix, row-major). The policy sees `POLICY_OBS_KEYS` concatenated in that order.
+matrix, row-major). The policy sees `POLICY_OBS_KEYS` concatenated in that order. With
+`obs_mode="image"` the observations also hold robomimic's camera images, uint8 (size, size, 3), rows
+top-down, drawn after every control step (and at reset) from the joint positions by a pool of
+renderer processes on the host (`render.pool`), reached through `jax.pure_callback` on either
+backend:
+  agentview_image            the fixed camera facing the robot (robosuite's `agentview` pose)
+  robot0_eye_in_hand_image   the wrist camera on the hand, looking out between the fingers
 
 Quaternion inputs are continuous along every motion the tasks make (a quaternion and its negative are
 the same rotation, so each quantity needs a sign convention):
@@ -26,6 +32,8 @@ the same rotation, so each quantity needs a sign convention):
 
 from __future__ import annotations
 
+import time
+
 import jax
 import jax.numpy as jnp
 import ml_collections
@@ -34,6 +42,7 @@ import numpy as np
 from brax.envs.base import Env, State
 
 from soe_jax.envs import controller, panda, physics, rotations
+from soe_jax.render import pool
 
 POLICY_OBS_KEYS = ("robot0_eef_pos", "robot0_eef_quat", "robot0_gripper_qpos", "object")
 # Sizes of the policy's observation keys; `object` is the task's own (`ManipulationEnv.object_dim`).
@@ -48,6 +57,8 @@ MIN_SPAN = {"pos": 0.08, "finger": 0.04, "hand_quat": 0.5, "quat": 0.5, "rel_qua
 CONTROL_DT = 0.05  # 20 Hz
 PHYSICS_DT = 0.002
 AGENTVIEW = dict(pos="0.5 0 1.35", quat="0.653 0.271 0.271 0.653")
+OBS_MODES = ("low_dim", "image")
+CAMERAS = ("agentview", panda.EYE_IN_HAND)  # image observation `<camera>_image` for each
 
 
 def base_config() -> ml_collections.ConfigDict:
@@ -61,6 +72,8 @@ def base_config() -> ml_collections.ConfigDict:
       action_mode="absolute",  # absolute (10-d) | delta (7-d)
       nsubsteps=25,  # physics substeps per 20 Hz control step
       episode_length=400,  # control steps: robomimic's evaluation horizon for lift / can / square
+      obs_mode="low_dim",  # low_dim | image (adds the cameras' images to the observations)
+      image_size=84,  # the images' height and width in pixels (robomimic's 84)
     )
   )
 
@@ -125,6 +138,18 @@ class ManipulationEnv(Env):
       ),
     )
     self.episode_length = int(self.config.episode_length)
+    if self.config.obs_mode not in OBS_MODES:
+      raise ValueError(
+        f"unknown observation mode {self.config.obs_mode!r}; known observation modes: {', '.join(OBS_MODES)}"
+      )
+    self.obs_mode = self.config.obs_mode
+    self.image_size = int(self.config.image_size)
+    self.cameras = CAMERAS if self.obs_mode == "image" else ()
+    self.image_keys = tuple(f"{c}_image" for c in self.cameras)
+    # Started on the first image; `render_seconds` is the time spent drawing, for benchmarks.
+    # No multisampling: the images are the policy's input, and llvmpipe draws them 2x faster without.
+    self.renderer = pool.Renderer(self.mj_model, self.cameras, self.image_size, samples=0) if self.cameras else None
+    self.render_seconds = 0.0
 
   @classmethod
   def default_config(cls) -> ml_collections.ConfigDict:
@@ -156,10 +181,14 @@ class ManipulationEnv(Env):
     return f"""<mujoco model="{self.name}">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{PHYSICS_DT}" integrator="implicitfast" cone="elliptic" impratio="20"/>
-  <visual><global offwidth="640" offheight="480"/><quality shadowsize="0"/></visual>
+  <visual>
+    <global offwidth="640" offheight="480"/><quality shadowsize="0"/>
+    <headlight ambient="0.25 0.25 0.25" diffuse="0.3 0.3 0.3" specular="0 0 0"/>
+  </visual>
   <asset>{self._assets_mjcf()}</asset>
   <worldbody>
-    <light pos="0 0 3" dir="0 0 -1" directional="true"/>
+    <light pos="0 0 3" dir="0 0 -1" directional="true" diffuse="0.4 0.4 0.4" specular="0.05 0.05 0.05"/>
+    <light pos="1.5 1 2" dir="-0.6 -0.4 -0.7" directional="true" diffuse="0.2 0.2 0.2" specular="0 0 0"/>
     <geom name="floor" type="plane" size="3 3 0.1" {panda.FIXTURE_COLLISION} rgba="0.6 0.6 0.6 1"/>
     <camera name="agentview" pos="{cam["pos"]}" quat="{cam["quat"]}" fovy="45"/>
     {panda.robot_mjcf(self.base_pos)}
@@ -259,7 +288,23 @@ class ManipulationEnv(Env):
       "robot0_joint_pos": qpos[:7],
       "robot0_eef_rot": fk["site_rot"].reshape(9),
     }
+    if self.cameras:
+      obs.update(self._images(qpos))
     return obs, self._success(qpos, fk["site_pos"]).astype(jnp.float32)
+
+  def _images(self, qpos: jax.Array) -> dict:
+    """{`<camera>_image`: (..., size, size, 3) uint8} at joint positions `qpos` (..., nq), drawn on the host."""
+    shape = jax.ShapeDtypeStruct(qpos.shape[:-1] + (self.image_size, self.image_size, 3), jnp.uint8)
+    return jax.pure_callback(self._host_images, {k: shape for k in self.image_keys}, qpos, vmap_method="broadcast_all")
+
+  def _host_images(self, qpos) -> dict:
+    t0 = time.perf_counter()
+    qpos = np.asarray(qpos)
+    images = self.renderer.render(qpos.reshape(-1, qpos.shape[-1]))
+    batch = qpos.shape[:-1] + (self.image_size, self.image_size, 3)
+    out = {f"{c}_image": images[c].reshape(batch) for c in self.cameras}
+    self.render_seconds += time.perf_counter() - t0
+    return out
 
 
 # -- helpers shared by the task modules ---------------------------------------------------------

@@ -98,6 +98,7 @@ OBJECT_COLLISION = 'contype="1" conaffinity="1"'
 FIXTURE_COLLISION = 'contype="2" conaffinity="1" priority="1" condim="3"'
 GRIPPER_COLLISION = 'contype="4" conaffinity="3"'
 VISUAL = 'contype="0" conaffinity="0" group="1"'
+EYE_IN_HAND = "robot0_eye_in_hand"  # the camera on the hand (robomimic's `robot0_eye_in_hand_image`)
 
 
 def _fmt(v) -> str:
@@ -136,6 +137,8 @@ def robot_mjcf(base_pos) -> str:
     xml.append(f'<geom type="capsule" size="0.05" fromto="{link_vis[i + 1]}" {VISUAL} rgba="1 1 1 1"/>')
   xml.append(f'<body name="right_hand" pos="{_fmt(HAND_POS)}" quat="{_fmt(HAND_QUAT)}" gravcomp="1">')
   xml.append('<inertial pos="0 0 0" mass="0.5" diaginertia="0.05 0.05 0.05"/>')
+  # robosuite's wrist camera, looking out along the approach axis between the fingers.
+  xml.append(f'<camera name="{EYE_IN_HAND}" pos="0.05 0 0" quat="0 0.707108 0.707108 0" fovy="75"/>')
   xml.append(f'<body name="right_gripper" quat="{_fmt(GRIPPER_QUAT)}" gravcomp="1">')
   xml.append('<inertial pos="0 0 0.04" mass="0.3" diaginertia="0.001 0.001 0.001"/>')
   # Palm: its bottom face sits 31 mm behind the grip site, along the approach axis (local z).

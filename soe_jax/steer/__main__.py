@@ -7,7 +7,7 @@ effective latent dimension, click one of the proposals drawn over the scene to e
 the finished episode: it is added to the run's data as a steered episode
 (`data/steered_round_<R>.hdf5`); the next round's fit takes the successful ones (all of them with
 `--config.rounds.steered=all` on the run). The frames are drawn headless with EGL (another
-`MUJOCO_GL` in the environment is used instead), in a process of their own (`soe_jax.steer.frames`).
+`MUJOCO_GL` in the environment is used instead), in a process of their own (`soe_jax.render`).
 """
 
 from __future__ import annotations

@@ -11,11 +11,13 @@ one raises `SteeringError` without changing anything.
 
 from __future__ import annotations
 
+import io
 import os
 import threading
 
 import jax
 import jax.numpy as jnp
+import matplotlib.image
 import mujoco
 import numpy as np
 
@@ -27,8 +29,8 @@ from soe_jax.envs import registry as env_registry
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.explore import steering
 from soe_jax.policies import agent as agent_lib
+from soe_jax.render.pool import Renderer
 from soe_jax.rundir import RunDir
-from soe_jax.steer.frames import Frames
 
 IMAGE_SIZE = 384
 
@@ -58,7 +60,8 @@ class SteeringSession:
     # With no dimension above the threshold: the strongest (the page says it carries little signal).
     self.dims = steering.effective_dims(self.snr, self.steer.threshold_db) or (int(np.argmax(self.snr)),)
     self.image_size = image_size
-    self.frames = None  # the child process that draws, started on first use
+    # The process that draws (started on first use): rendering stays out of this process, which compiles XLA.
+    self.frames = Renderer(self.env.mj_model, ["agentview"], image_size, processes=1)
     self.data = mujoco.MjData(self.env.mj_model)
     self.saved = 0
     self.last_saved = None  # {"success": bool, "used": bool} of the episode saved last
@@ -170,9 +173,7 @@ class SteeringSession:
 
   def close(self) -> None:
     """End the process that draws the frames."""
-    if self.frames is not None:
-      self.frames.close()
-      self.frames = None
+    self.frames.close()
 
   # -- what the page shows ----------------------------------------------------------------------
   def _camera(self):
@@ -193,9 +194,10 @@ class SteeringSession:
     return [[float(size / 2 + f * x / -z), float(size / 2 - f * y / -z)] for x, y, z in c]
 
   def image_png(self) -> bytes:
-    if self.frames is None:
-      self.frames = Frames(self.env.mj_model, self.image_size, "agentview")
-    return self.frames.png(self.state.pipeline_state.qpos[0])
+    image = self.frames.render(self.state.pipeline_state.qpos[0])["agentview"]
+    buf = io.BytesIO()
+    matplotlib.image.imsave(buf, image, format="png")
+    return buf.getvalue()
 
   def view(self) -> dict:
     props = []
