@@ -149,8 +149,9 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   # round0_dir: where the shared round 0 lives ("" = <workdir>/../round0).
   # Logging beside metrics.jsonl and TensorBoard (never part of the experiment: a run resumes with other
   # settings here): wandb mirrors each phase's numbers, with the config and the commit, to the project
-  # `wandb_project` (WANDB_MODE=offline keeps it on disk, in <workdir>/wandb).
-  c.log = ml_collections.ConfigDict(dict(wandb=False, wandb_project="soe_jax"))
+  # `wandb_project` (WANDB_MODE=offline keeps it on disk, in <workdir>/wandb). videos: each evaluation and
+  # exploration stores its first `videos` episodes, drawn to MP4 in <workdir>/videos/ (0: none).
+  c.log = ml_collections.ConfigDict(dict(wandb=False, wandb_project="soe_jax", videos=4))
   c.rounds = ml_collections.ConfigDict(
     dict(num_rounds=3, select="first_success", length_cap=0.0, refit="continue", refit_steps=10_000, refit_lr=0.0,
          refit_ema="restart", steered="successful", new_data="kept", round0_dir="")
@@ -227,6 +228,7 @@ def apply_presets(
       steer.update(num_proposals=4, num_choices=2, max_dims=2, snr_windows=64)
     c.eval.num_start_states = 4
     c.rounds.update(num_rounds=2, refit_steps=20)
+    c.log.videos = 0  # (the tests that watch episodes ask for them)
   if "head" in presets:
     name = presets["head"]
     c.policy.head.name = name

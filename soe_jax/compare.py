@@ -49,7 +49,7 @@ def compare(configs: dict, workdir: str, num_start_states: int, tries: int, prog
       base = read_json(exp.run.phase_path(0, "evaluate"))
       shared = state, build_buffer(config, exp.policy, [EpisodeSet(demos, 0)])
     state, buf = shared
-    (rec, _), times = exp.timed(lambda: exp.explore(state, 1, buf))
+    (rec, _, _), times = exp.timed(lambda: exp.explore(state, 1, buf))
     exp.timer.close()
     keys = ("pass_at_k", "rollouts", "rollouts_mean", "jerk", "success_rate")
     rows.append(

@@ -102,14 +102,25 @@ class Experiment:
     """The base path from `num_states` (default `eval.num_start_states`) start states split from the
     evaluation seed (which states depends on the count), sampling with `key` (default: the evaluation
     key, the same in every round, so that rounds and methods are paired state by state)."""
+    return self._evaluate(state, r, num_states, key, progress)[0]
+
+  def _evaluate(self, state, r: int, num_states=None, key=None, progress=None) -> tuple[dict, dict]:
+    """(`evaluate`'s record, the rollout)."""
     n = int(num_states or self.config.eval.num_start_states)
     keys = jax.random.split(jax.random.PRNGKey(int(self.config.eval.seed)), n)
     key = self.key(0, _EVALUATE) if key is None else key
     out = self.rollout(state, strategy_registry.make_strategy("dp"), keys, key, f"round {r} evaluate", progress)
-    return dict(metrics.rollout_summary(out, 1, state.normalizer), success=out["success"].astype(int).tolist())
+    rec = dict(metrics.rollout_summary(out, 1, state.normalizer), success=out["success"].astype(int).tolist())
+    return rec, out
 
-  def explore(self, state, r: int, buf) -> tuple[dict, list[dict]]:
-    """Round r's exploration with the configured strategy, prepared on the data in `buf`."""
+  def shown(self, out: dict) -> list[dict]:
+    """A rollout's first `log.videos` episodes, to be watched."""
+    n = len(out["success"])
+    return from_rollout(out, np.arange(n) < int(self.config.log.videos))
+
+  def explore(self, state, r: int, buf) -> tuple[dict, list[dict], list[dict]]:
+    """Round r's exploration with the configured strategy, prepared on the data in `buf` -> (record,
+    the episodes it adds to the data, its first episodes to be watched)."""
     c = self.config.explore
     strategy = strategy_registry.make_strategy(c.strategy.name, self.env, **c.strategy.kwargs)
     strategy, extra = strategy.prepare(self.agent(state), buf, jax.random.fold_in(self.key(r, _EXPLORE), 1))
@@ -136,8 +147,8 @@ class Experiment:
     if "steered" in out["aux"]:
       rec["steered_fraction"] = float(out["aux"]["steered"].mean())
     if self.config.rounds.new_data == "expert":
-      return self.expert_episodes(state, r, reset_keys[keep], rec)
-    return rec, from_rollout(out, keep)
+      return (*self.expert_episodes(state, r, reset_keys[keep], rec), self.shown(out))
+    return rec, from_rollout(out, keep), self.shown(out)
 
   def expert_episodes(self, state, r: int, reset_keys, rec: dict) -> tuple[dict, list[dict]]:
     """The oracle's data: the scripted demonstrator's episodes from `reset_keys` (the start states an
@@ -232,15 +243,45 @@ class Experiment:
     return self.phase(r, "fit", work, save, load)[1]
 
   def explore_phase(self, r: int, state, buf) -> tuple[dict, list[dict]]:
-    """Round r's exploration (prepared on `buf`) -> its record and the episodes it kept, saved with it."""
+    """Round r's exploration (prepared on `buf`) -> its record and the episodes it kept, saved with it
+    (and its first episodes, to be watched)."""
     meta = dict(
       env_name=self.env.name, strategy=self.config.explore.strategy.name, new_data=self.config.rounds.new_data
     )
-    save = lambda kept: self.run.save_kept(r, kept, meta)
-    return self.phase(r, "explore", lambda: self.explore(state, r, buf), save, self.run.kept)
+
+    def work():
+      rec, kept, shown = self.explore(state, r, buf)
+      return rec, (kept, shown)
+
+    def save(value):
+      self.run.save_kept(r, value[0], meta)
+      self.run.save_shown(r, "explore", value[1], meta)
+
+    record, (kept, _) = self.phase(r, "explore", work, save, lambda rec: (self.run.kept(rec), None))
+    return record, kept
 
   def evaluate_phase(self, r: int, state) -> dict:
-    return self.phase(r, "evaluate", lambda: (self.evaluate(state, r), None))[0]
+    """Round r's evaluation -> its record, saved with its first episodes (to be watched)."""
+
+    def work():
+      rec, out = self._evaluate(state, r)
+      return rec, self.shown(out)
+
+    save = lambda shown: self.run.save_shown(r, "evaluate", shown, dict(env_name=self.env.name))
+    return self.phase(r, "evaluate", work, save)[0]
+
+  def videos(self, r: int) -> None:
+    """Draw round r's stored episodes to MP4 (`video`), once; a renderer that cannot start is a warning,
+    not the run's end (the run can draw them later: `python -m soe_jax.video`)."""
+    if not int(self.config.log.videos):
+      return
+    from soe_jax import video
+    from soe_jax.render.pool import RenderError
+
+    try:
+      video.render_round(self.run, self.env, r, redraw=False)
+    except (RenderError, OSError) as e:
+      print(f"warning: round {r}'s videos were not drawn: {e}", flush=True)
 
 
 def eval_curve(history: list[dict]) -> list[dict]:
@@ -285,6 +326,7 @@ def round0(exp: Experiment) -> tuple:
   norm = normalizer_lib.fit(*policy_frames(demos), margin=margin, obs_min_span=exp.env.obs_min_span)
   state = exp.fit_phase(0, [EpisodeSet(demos, 0)], norm)
   exp.evaluate_phase(0, state)
+  exp.videos(0)
   return demos, norm, state
 
 
@@ -321,4 +363,5 @@ def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
       sets = [EpisodeSet(demos, 0)] + selected + exp.run.steered_sets(r, config.rounds.steered == "successful")
       state = exp.fit_phase(r, sets, norm, state if config.rounds.refit == "continue" else None)
       exp.evaluate_phase(r, state)
+      exp.videos(r)
   return report.write(workdir)

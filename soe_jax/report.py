@@ -153,10 +153,33 @@ def write(workdir: str) -> dict:
       f"| {ex.get('num_episodes', '-')} | {loss} | {_round_wall_s(phases, r):.0f} |"
     )
   md += ["", "![success over rounds](success.png)", "", "![exploration over rounds](exploration.png)", ""]
+  md += _video_lines(workdir, outcomes)
   with open(os.path.join(workdir, "report.md"), "w") as f:
     f.write("\n".join(md))
   _plots(workdir, s)
   return s
+
+
+def _video_lines(workdir: str, outcomes: dict) -> list[str]:
+  """Links to the run's rollout videos (`video`), a line per round and phase, each episode's outcome."""
+  from soe_jax import video
+
+  rounds = sorted({int(r) for phase in outcomes.values() for r in phase})
+  lines = []
+  for r in rounds:
+    found = video.videos(workdir, r)
+    for phase in video.PHASES:
+      links = []
+      for ph, i, rel in found:
+        if ph == phase:
+          done = outcomes[phase].get(str(r), [])
+          links.append(f"[{i}]({rel}) {'success' if i < len(done) and done[i] else 'failure'}")
+      if links:
+        lines.append(f"- round {r} {phase}: " + ", ".join(links))
+  if not lines:
+    return []
+  head = "## Videos\n\nThe first episodes of each evaluation and exploration (agent view, in-hand view beside it):\n"
+  return [head, *lines, ""]
 
 
 def _plots(workdir: str, s: dict) -> None:

@@ -6,9 +6,11 @@
   <workdir>/report.md, outcomes.json  the report and every evaluation's per-state outcomes (`report`)
   <workdir>/rounds/<r>/<phase>.json   each finished phase's record (explore, fit, evaluate)
   <workdir>/rounds/<r>/ckpt/          round r's policy
+  <workdir>/rounds/<r>/<phase>_episodes.hdf5  the phase's first `log.videos` episodes (for videos)
+  <workdir>/videos/                   those episodes drawn to MP4 (`video`)
   <workdir>/data/round_<r>.hdf5       the episodes round r kept
   <workdir>/data/steered_round_<r>.hdf5  episodes steered by hand with round r's policy
-  <round0>/{demos.hdf5, fit.json, evaluate.json, ckpt/}  round 0, shared (below)
+  <round0>/{demos.hdf5, fit.json, evaluate.json, evaluate_episodes.hdf5, ckpt/}  round 0, shared (below)
 
 Round 0 depends only on the task, data, policy, fit, rollout and evaluation settings, so it is stored
 once in `rounds.round0_dir` (default `<workdir>/../round0`) under `<task>-<hash of those fields>` and
@@ -54,6 +56,7 @@ ADDED = {
   "env.mjx_impl": "auto",
   "env.mjx_max_batch": 8192,
   "env.mjx_settings": "",
+  "log.videos": 0,
 }
 # Sections a run may resume with other settings in: they change how it is logged, not what it does.
 NOT_COMPARED = ("log.", "env.mjx_max_batch")
@@ -307,6 +310,24 @@ class RunDir:
   def kept(self, record: dict) -> list[dict]:
     """The episodes the explore phase of `record` kept."""
     return hdf5.read_episodes(self.data_path(record["round"]))[0] if record["num_episodes"] else []
+
+  def shown_path(self, r: int, phase: str) -> str:
+    """Where round r's phase stores its first episodes, to be watched."""
+    return os.path.join(self.round_dir(r), f"{phase}_episodes.hdf5")
+
+  def save_shown(self, r: int, phase: str, episodes: list[dict], meta: dict) -> None:
+    hdf5.write_episodes(self.shown_path(r, phase), episodes, dict(meta, source=f"round {r} {phase}, first episodes"))
+
+  def shown(self, r: int, phase: str) -> list[dict]:
+    """Round r's stored first episodes of `phase` (none if it stored none)."""
+    path = self.shown_path(r, phase)
+    return hdf5.read_episodes(path)[0] if os.path.exists(path) else []
+
+  def shown_rounds(self) -> list[int]:
+    """The rounds with stored episodes of either phase."""
+    rounds = os.path.join(self.path, "rounds")
+    found = sorted(int(d) for d in os.listdir(rounds) if d.isdigit()) if os.path.isdir(rounds) else []
+    return [r for r in [0] + found if any(os.path.exists(self.shown_path(r, p)) for p in ("evaluate", "explore"))]
 
   def outcomes(self) -> dict:
     """Per-state outcomes of the finished phases: {"evaluate": {round: [0/1 per evaluation state]},

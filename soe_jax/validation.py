@@ -31,6 +31,7 @@ NON_NEGATIVE = (
   "rounds.num_rounds",
   "fit.warmup_steps",
   "fit.checkpoint_every",
+  "log.videos",
   "fit.eval_every",
   "rounds.refit_lr",
   "rounds.length_cap",

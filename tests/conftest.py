@@ -68,12 +68,14 @@ def jitted_env():
 
 @pytest.fixture(scope="session")
 def smoke_run(tmp_path_factory):
-  """A finished two-round `lift:smoke,soe` run: (runs root, config, workdir, summary)."""
+  """A finished two-round `lift:smoke,soe` run, with a video of each phase's first episode: (runs root,
+  config, workdir, summary)."""
   from configs import lift as lift_config
   from soe_jax import loop
 
   root = tmp_path_factory.mktemp("runs")
   config = lift_config.get_config("smoke,soe")
+  config.log.videos = 1
   workdir = str(root / "lift-soe")
   summary = loop.run(config, workdir, progress=False)
   return root, config, workdir, summary

@@ -56,7 +56,7 @@ def test_expert_data_trains_on_the_demonstrators_episodes_from_the_kept_states(s
   oracle.rounds.update(num_rounds=1, round0_dir=str(tmp_path / "round0"))
   exp = loop.Experiment(oracle, RunDir.create(str(tmp_path / "run"), oracle), progress=False)
   state = loop.checkpoint.load(RunDir(workdir, config).ckpt_dir(0)).state
-  rec, kept = exp.explore(state, 1, loop.build_buffer(oracle, exp.policy, []))
+  rec, kept, _ = exp.explore(state, 1, loop.build_buffer(oracle, exp.policy, []))
   n = oracle.explore.num_start_states
   assert rec["explored_episodes"] == n and rec["num_episodes"] == len(kept) == n  # the demonstrator's, all kept
   assert rec["expert_success_rate"] == 1.0 and all(ep["success"] for ep in kept)

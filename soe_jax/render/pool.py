@@ -14,6 +14,7 @@ import subprocess
 import sys
 import tempfile
 import threading
+import warnings
 
 import numpy as np
 
@@ -30,13 +31,15 @@ class _Process:
     env.setdefault("MUJOCO_GL", "egl")  # headless; the child imports mujoco after this is set
     env.setdefault("LP_NUM_THREADS", "1")  # Mesa's llvmpipe: one thread per process, the pool spreads
     self.log = tempfile.TemporaryFile()
-    self.proc = subprocess.Popen(
-      [sys.executable, "-m", "soe_jax.render.child"],
-      stdin=subprocess.PIPE,
-      stdout=subprocess.PIPE,
-      stderr=self.log,
-      env=env,
-    )
+    with warnings.catch_warnings():  # JAX warns of any fork; this one is followed at once by exec
+      warnings.filterwarnings("ignore", "os.fork", RuntimeWarning)
+      self.proc = subprocess.Popen(
+        [sys.executable, "-m", "soe_jax.render.child"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=self.log,
+        env=env,
+      )
     self.send(setup)
     self.receive()
 

@@ -62,3 +62,10 @@ def test_the_wrist_camera_sees_the_object_from_above_and_the_agent_view_sees_the
   assert 21 < np.flatnonzero(seen.any(0)).mean() < 63  # between the fingers, in the middle half
   assert _changed_mask(agent[0], agent[2]).mean() > 0.01  # turning the arm changes the agent view
   env.renderer.close()
+
+
+def test_the_video_command_names_the_tasks_cameras():
+  from soe_jax import video
+  from soe_jax.envs import manipulation
+
+  assert video.CAMERAS == manipulation.CAMERAS

@@ -1,0 +1,48 @@
+"""Rollout videos: a run draws the first episode of each evaluation and exploration to MP4 with one
+frame per control step, its report links them with their outcomes, and `python -m soe_jax.video`
+draws a round again (or says which rounds have episodes)."""
+
+import os
+import subprocess
+import sys
+
+import imageio.v2 as imageio
+
+from soe_jax.rundir import RunDir
+from tests.test_render import needs_egl
+
+pytestmark = needs_egl
+
+
+def _frames(path: str) -> list:
+  with imageio.get_reader(path) as reader:
+    return [frame for frame in reader]
+
+
+def test_a_run_draws_its_first_episodes_and_the_report_links_them(smoke_run):
+  _, config, workdir, _ = smoke_run
+  run = RunDir.open(workdir)
+  for r in (0, 1, 2):
+    for phase in ("evaluate", "explore") if r else ("evaluate",):
+      (episode,) = run.shown(r, phase)
+      frames = _frames(os.path.join(workdir, "videos", f"round_{r}_{phase}_0.mp4"))
+      assert len(frames) == len(episode["actions"])  # one frame per control step
+      assert frames[0].shape == (256, 512, 3)  # the agent view, the in-hand view beside it
+  with open(os.path.join(workdir, "report.md")) as f:
+    report = f.read()
+  assert "- round 1 explore: [0](videos/round_1_explore_0.mp4) " in report
+
+
+def test_the_video_command_draws_a_round_again_and_names_the_rounds_it_has(smoke_run, tmp_path):
+  _, _, workdir, _ = smoke_run
+  path = os.path.join(workdir, "videos", "round_2_evaluate_0.mp4")
+  os.remove(path)
+  cmd = [sys.executable, "-m", "soe_jax.video", f"--workdir={workdir}", "--round=2", "--size=64"]
+  done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+  assert done.returncode == 0, done.stderr
+  assert (
+    path in done.stdout and "warp" not in done.stdout + done.stderr
+  )  # nothing but what it wrote and _frames(path)[0].shape == (64, 128, 3)
+  cmd[4] = "--round=7"
+  done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+  assert done.returncode == 2 and "no stored episodes for round 7 (rounds with some: 0, 1, 2;" in done.stderr
