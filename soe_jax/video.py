@@ -82,9 +82,11 @@ def videos(workdir: str, r: int) -> list[tuple[str, str, int, str]]:
   return out
 
 
-flags.DEFINE_string("workdir", None, "The run directory.")
-flags.DEFINE_integer("round", None, "The round to render (default: every round with stored episodes).")
-flags.DEFINE_integer("size", SIZE, "Pixels per camera view (height and width).")
+def _define_flags() -> None:
+  """The command's flags (defined only when it runs: the run imports this module too)."""
+  flags.DEFINE_string("workdir", None, "The run directory.")
+  flags.DEFINE_integer("round", None, "The round to render (default: every round with stored episodes).")
+  flags.DEFINE_integer("size", SIZE, "Pixels per camera view (height and width).")
 
 
 def main(argv):
@@ -112,4 +114,5 @@ def main(argv):
 
 
 if __name__ == "__main__":
+  _define_flags()
   cli.run(main)
