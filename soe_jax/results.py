@@ -54,6 +54,14 @@ def table(study: str) -> str:
     from soe_jax import kept
 
     return kept.table([run for _, r in records for run in r["runs"]])
+  if all("throughput" in r for _, r in records):  # python -m soe_jax.bench env --out
+    from soe_jax.bench import env
+
+    return env.table(records)
+  if all("encoder" in r for _, r in records):  # python -m soe_jax.bench encoder --out
+    from soe_jax.bench import encoder
+
+    return encoder.table(records)
   if all("mjx" in r for _, r in records):  # python -m soe_jax.bench mjx
     from soe_jax.bench import mjx
 

@@ -1,9 +1,10 @@
 """Benchmarks, each printing one JSON object as its last line.
 
 python -m soe_jax.bench env --task=square --num_envs=256 [--backend=mujoco|mjx --mjx_impl=jax|warp] [--num_envs=1 --unbatched]
-    [--obs_mode=image]
+    [--obs_mode=image] [--out=results/render/<name>.json]
 python -m soe_jax.bench mjx --task=lift --mjx_impl=warp --num_envs=200 [--out=results/mjx/lift-warp.json]
 python -m soe_jax.bench fit --config=configs/square.py [--bypass=on|off] [--ema=on|off]
+python -m soe_jax.bench encoder [--batch=64 --widths=64,128,256,512] [--out=results/encoder/<name>.json]
 python -m soe_jax.bench sample --config=configs/square.py --batch=1 --steps=10
 python -m soe_jax.bench rollout --config=configs/lift.py:cpu --strategy=soe --num_envs=100
 python -m soe_jax.bench converge --config=configs/lift.py:cpu [--eval_every=1000 --eval_states=50
@@ -31,13 +32,14 @@ flags.DEFINE_integer(
   "steps",
   None,
   "env: control steps per compiled call (default 20 mujoco, 2 mjx); "
-  "fit: SGD steps per timed chunk (default 10); sample: denoising steps (default 10); "
+  "fit: SGD steps per timed chunk (default 10; encoder 3); sample: denoising steps (default 10); "
   "rollout: decisions per timed call (default 2).",
 )
 flags.DEFINE_integer("repeats", None, "Timed calls.")
 flags.DEFINE_enum("bypass", "off", ["on", "off"], "fit: train the VIB bypass too.")
 flags.DEFINE_enum("ema", "off", ["on", "off"], "fit: keep the EMA of parameters.")
-flags.DEFINE_integer("batch", 1, "sample: observations per chunk.")
+flags.DEFINE_integer("batch", 1, "sample: observations per chunk; encoder: batch size (default 64).")
+flags.DEFINE_list("widths", ["64", "128", "256", "512"], "encoder: the ResNet-18 trunk's stem and stage channels.")
 flags.DEFINE_string(
   "strategy",
   "",
@@ -51,14 +53,16 @@ flags.DEFINE_integer("windows", 4096, "latent: observation histories of the roun
 flags.DEFINE_string(
   "workdir", None, "converge / latent: its run directory (default runs/<benchmark>/<round-0 key>...)."
 )
-flags.DEFINE_string("out", None, "mjx / converge / latent: also write the result record (for results/) here.")
+flags.DEFINE_string(
+  "out", None, "env / encoder / mjx / converge / latent: also write the result record (for results/) here."
+)
 flags.DEFINE_bool("progress", True, "mjx / converge / latent: progress bars.")
 config_flags.DEFINE_config_file(
   "config", None, "fit / sample / rollout / converge / latent: configs/<task>.py[:PRESETS].", lock_config=True
 )
 FLAGS = flags.FLAGS
 
-BENCHMARKS = ("env", "mjx", "fit", "sample", "rollout", "converge", "latent")
+BENCHMARKS = ("env", "mjx", "fit", "encoder", "sample", "rollout", "converge", "latent")
 
 
 def main(argv):
@@ -71,6 +75,10 @@ def main(argv):
   what = argv[1]
   if what in ("fit", "sample", "rollout", "converge", "latent") and FLAGS.config is None:
     raise app.UsageError(f"bench {what} needs --config=configs/<task>.py[:PRESETS]")
+  if what in ("env", "encoder"):
+    from soe_jax import provenance
+
+    source = provenance.header()
   if what == "env":
     from soe_jax.bench import env
 
@@ -85,6 +93,10 @@ def main(argv):
       FLAGS.mjx_settings,
       FLAGS.obs_mode,
     )
+    if FLAGS.out:
+      from soe_jax.bench import experiment
+
+      experiment.write_record(dict(source, throughput=result), FLAGS.out)
   elif what == "mjx":
     from soe_jax.bench import experiment, mjx
 
@@ -96,6 +108,16 @@ def main(argv):
     from soe_jax.bench import policy
 
     result = policy.fit(FLAGS.config, FLAGS.bypass == "on", FLAGS.ema == "on", FLAGS.steps or 10, FLAGS.repeats or 2)
+  elif what == "encoder":
+    from soe_jax.bench import encoder
+
+    batch = FLAGS.batch if FLAGS["batch"].present else 64
+    result = encoder.run(batch, widths=tuple(int(w) for w in FLAGS.widths), steps=FLAGS.steps or 3,
+                         repeats=FLAGS.repeats or 2)  # fmt: skip
+    if FLAGS.out:
+      from soe_jax.bench import experiment
+
+      experiment.write_record(dict(source, encoder=result), FLAGS.out)
   elif what == "converge":
     from soe_jax.bench import converge, experiment
 

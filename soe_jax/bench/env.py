@@ -136,3 +136,24 @@ def _split(env, state, total, n, physics, render_s) -> dict:
     render=round(draw_s, 4),
     other=round(total_s - phys_s - cb_s - ik_s - obs_s - draw_s, 4),
   )
+
+
+def table(records: list[tuple[str, dict]]) -> str:
+  """One row per `bench env --out` record (`throughput`), by task, images first, then batch: the
+  batch, the observations, the speed, and with images the rendering's share and frames per second."""
+  md = [
+    "| task | environments | observations | control steps/s | frames/s (both cameras) | render share | renderer processes |",
+    "|---|---|---|---|---|---|---|",
+  ]
+  key = lambda r: (r["throughput"]["task"], r["throughput"]["obs_mode"] != "image", r["throughput"]["num_envs"])
+  for r in sorted((r for _, r in records), key=key):
+    t = r["throughput"]
+    draw = t.get("render")
+    frames, share, procs = (
+      (f"{draw['frames_per_s']:,.0f}", f"{100 * draw['share']:.0f}%", draw["processes"]) if draw else ("-", "-", "-")
+    )
+    md.append(
+      f"| {t['task']} | {t['num_envs']} | {t['obs_mode']} | {t['control_steps_per_s']:,.0f} | {frames} | {share} "
+      f"| {procs} |"
+    )
+  return "\n".join(md) + "\n"

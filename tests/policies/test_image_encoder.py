@@ -32,3 +32,16 @@ def test_image_encoder_concatenates_cameras_and_lowdim_per_frame():
   out, params = enc.init_with_output({"params": jax.random.PRNGKey(0), "crop": jax.random.PRNGKey(1)}, obs, train=True)
   assert out.shape == (2, 2 * (64 + 9))
   np.testing.assert_array_equal(out.reshape(2, 2, 73)[..., 64:], 1.0)
+
+
+def test_im2col_convolutions_match_xlas():
+  x = jax.random.normal(jax.random.PRNGKey(0), (2, 19, 19, 5))
+  for k, stride, pad in ((7, 2, 3), (3, 1, 1), (3, 2, 1), (1, 2, 0)):
+    conv = resnet.Conv(4, k, stride, padding=pad)
+    params = conv.init(jax.random.PRNGKey(1), x)
+    w = params["params"]["kernel"]
+    assert w.shape == (k, k, 5, 4)  # flax's nn.Conv layout
+    reference = jax.lax.conv_general_dilated(
+      x, w, (stride, stride), [(pad, pad)] * 2, dimension_numbers=("NHWC", "HWIO", "NHWC")
+    )
+    np.testing.assert_allclose(conv.apply(params, x), reference, rtol=1e-4, atol=1e-4)

@@ -2,7 +2,15 @@
 per camera a ResNet-18 trunk (avgpool and fc removed, random init) with every BatchNorm replaced by
 GroupNorm(C // 16 groups), spatial softmax to 32 keypoints (expected x, y over a [-1, 1] grid),
 Linear(64, 64) and a ReLU. Random crop (76 of 84 by default) in training, centre crop in evaluation,
-drawn independently per image. Images arrive in [0, 1] and are scaled to [-1, 1]. NHWC."""
+drawn independently per image. Images arrive in [0, 1] and are scaled to [-1, 1]. NHWC.
+
+Convolutions are im2col + one matrix product: inside a compiled loop (a fit chunk's `lax.scan`),
+XLA:CPU runs its own 2-D convolutions about 40x slower than outside one, while matrix products keep
+their speed (measured here: ResNet-18's trunk on 64 crops, forward and backward, 37.7 s in a scan
+with XLA's convolutions against 0.92 s this way; BENCHMARKS.md).
+
+`widths` are the channels of the stem and the four stages (ResNet-18's 64, 128, 256, 512 by default);
+narrower ones make the same architecture affordable on a CPU (`bench encoder` times both)."""
 
 from __future__ import annotations
 
@@ -14,7 +22,39 @@ import jax.numpy as jnp
 
 
 def _gn(x):
-  return nn.GroupNorm(num_groups=x.shape[-1] // 16, epsilon=1e-5)(x)
+  return nn.GroupNorm(num_groups=max(1, x.shape[-1] // 16), epsilon=1e-5)(x)
+
+
+def _shifted(x, k: int, stride: int, pad: int) -> list:
+  """The k x k strided views of (..., H, W, C) zero-padded by `pad`, tap-major: k * k arrays
+  (..., H', W', C)."""
+  h_out = (x.shape[-3] + 2 * pad - k) // stride + 1
+  w_out = (x.shape[-2] + 2 * pad - k) // stride + 1
+  xp = jnp.pad(
+    x,
+    [(0, 0)] * (x.ndim - 3) + [(pad, pad), (pad, pad), (0, 0)],
+  )
+  span_h, span_w = stride * (h_out - 1) + 1, stride * (w_out - 1) + 1
+  return [xp[..., i : i + span_h : stride, j : j + span_w : stride, :] for i in range(k) for j in range(k)]
+
+
+class Conv(nn.Module):
+  """A k x k convolution without bias (NHWC) as im2col + one matrix product; its kernel is stored
+  (k, k, in, out) and initialised as flax's `nn.Conv` does."""
+
+  features: int
+  kernel_size: int
+  stride: int = 1
+  padding: int = 0
+
+  @nn.compact
+  def __call__(self, x):
+    k, c = self.kernel_size, x.shape[-1]
+    w = self.param("kernel", nn.initializers.lecun_normal(), (k, k, c, self.features))
+    if k == 1:
+      return x[..., :: self.stride, :: self.stride, :] @ w[0, 0]
+    patches = jnp.concatenate(_shifted(x, k, self.stride, self.padding), axis=-1)  # (..., H', W', k k C)
+    return patches @ w.reshape(k * k * c, self.features)
 
 
 class BasicBlock(nn.Module):
@@ -23,21 +63,26 @@ class BasicBlock(nn.Module):
 
   @nn.compact
   def __call__(self, x):
-    h = nn.Conv(self.features, (3, 3), (self.stride, self.stride), padding=1, use_bias=False)(x)
+    h = Conv(self.features, 3, self.stride, padding=1)(x)
     h = jax.nn.relu(_gn(h))
-    h = _gn(nn.Conv(self.features, (3, 3), padding=1, use_bias=False)(h))
+    h = _gn(Conv(self.features, 3, padding=1)(h))
     if self.stride != 1 or x.shape[-1] != self.features:
-      x = _gn(nn.Conv(self.features, (1, 1), (self.stride, self.stride), use_bias=False)(x))
+      x = _gn(Conv(self.features, 1, self.stride)(x))
     return jax.nn.relu(h + x)
 
 
+RESNET18_WIDTHS = (64, 128, 256, 512)
+
+
 class ResNet18Trunk(nn.Module):
+  widths: Sequence[int] = RESNET18_WIDTHS
+
   @nn.compact
   def __call__(self, x):
-    x = nn.Conv(64, (7, 7), (2, 2), padding=3, use_bias=False)(x)
+    x = Conv(self.widths[0], 7, 2, padding=3)(x)
     x = jax.nn.relu(_gn(x))
     x = nn.max_pool(x, (3, 3), (2, 2), padding=((1, 1), (1, 1)))
-    for i, f in enumerate((64, 128, 256, 512)):
+    for i, f in enumerate(self.widths):
       x = BasicBlock(f, 1 if i == 0 else 2)(x)
       x = BasicBlock(f)(x)
     return x
@@ -60,10 +105,11 @@ class SpatialSoftmax(nn.Module):
 
 class CameraEncoder(nn.Module):
   feature_dim: int = 64
+  widths: Sequence[int] = RESNET18_WIDTHS
 
   @nn.compact
   def __call__(self, image):
-    x = SpatialSoftmax()(ResNet18Trunk()(image))
+    x = SpatialSoftmax()(ResNet18Trunk(tuple(self.widths))(image))
     return jax.nn.relu(nn.Dense(self.feature_dim)(x))
 
 
@@ -91,6 +137,7 @@ class ImageEncoder(nn.Module):
 
   cameras: Sequence[str] = ("agentview_image", "robot0_eye_in_hand_image")
   crop_size: int = 76
+  widths: Sequence[int] = RESNET18_WIDTHS
 
   @nn.compact
   def __call__(self, obs, train: bool = False):
@@ -100,6 +147,8 @@ class ImageEncoder(nn.Module):
       key = self.make_rng("crop") if train else None
       images = crop(images, self.crop_size, train, key)
       flat = images.reshape((-1,) + images.shape[-3:])  # frames as one batch, as Diffusion Policy does
-      feats.append(CameraEncoder(name=f"camera_{i}")(flat).reshape(images.shape[:-3] + (-1,)))
+      feats.append(
+        CameraEncoder(widths=tuple(self.widths), name=f"camera_{i}")(flat).reshape(images.shape[:-3] + (-1,))
+      )
     per_frame = jnp.concatenate(feats + [obs["lowdim"]], axis=-1)
     return per_frame.reshape(per_frame.shape[:-2] + (-1,))
