@@ -316,6 +316,9 @@ class RunDir:
     return os.path.join(self.round_dir(r), f"{phase}_episodes.hdf5")
 
   def save_shown(self, r: int, phase: str, episodes: list[dict], meta: dict) -> None:
+    """Store round r's first episodes of `phase` (nothing when there are none: `log.videos=0`)."""
+    if not episodes:
+      return
     hdf5.write_episodes(self.shown_path(r, phase), episodes, dict(meta, source=f"round {r} {phase}, first episodes"))
 
   def shown(self, r: int, phase: str) -> list[dict]:
