@@ -297,11 +297,7 @@ class RunDir:
 
   def last_round(self) -> int:
     """The last round with a saved checkpoint (0 if only round 0 has one)."""
-    rounds = os.path.join(self.path, "rounds")
-    if not os.path.isdir(rounds):
-      return 0
-    done = [int(d) for d in os.listdir(rounds) if d.isdigit() and self.has_checkpoint(int(d))]
-    return max(done, default=0)
+    return max((r for r in self.rounds() if r and self.has_checkpoint(r)), default=0)
 
   def save_kept(self, r: int, kept: list[dict], meta: dict) -> None:
     """Write the episodes round r kept (`meta` goes into the file's env_args)."""
@@ -328,17 +324,18 @@ class RunDir:
 
   def shown_rounds(self) -> list[int]:
     """The rounds with stored episodes of either phase."""
+    return [r for r in self.rounds() if any(os.path.exists(self.shown_path(r, p)) for p in ("evaluate", "explore"))]
+
+  def rounds(self) -> list[int]:
+    """Round 0 and every round with a directory, in order."""
     rounds = os.path.join(self.path, "rounds")
-    found = sorted(int(d) for d in os.listdir(rounds) if d.isdigit()) if os.path.isdir(rounds) else []
-    return [r for r in [0] + found if any(os.path.exists(self.shown_path(r, p)) for p in ("evaluate", "explore"))]
+    return [0] + (sorted(int(d) for d in os.listdir(rounds) if d.isdigit()) if os.path.isdir(rounds) else [])
 
   def outcomes(self) -> dict:
     """Per-state outcomes of the finished phases: {"evaluate": {round: [0/1 per evaluation state]},
     "explore": {round: [0/1 per episode, tries adjacent]}} (rounds as strings, as JSON keys are)."""
     out = {"evaluate": {}, "explore": {}}
-    rounds = os.path.join(self.path, "rounds")
-    found = sorted(int(d) for d in os.listdir(rounds) if d.isdigit()) if os.path.isdir(rounds) else []
-    for r in [0] + found:
+    for r in self.rounds():
       for phase in out:
         if os.path.exists(path := self.phase_path(r, phase)):
           out[phase][str(r)] = read_json(path)["success"]

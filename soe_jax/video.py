@@ -71,7 +71,7 @@ def render_round(
   return written
 
 
-def videos(workdir: str, r: int) -> list[tuple[str, str, int, str]]:
+def videos(workdir: str, r: int) -> list[tuple[str, int, str]]:
   """Round r's videos on disk: (phase, episode index, path relative to the run) in order."""
   out = []
   for phase in PHASES:

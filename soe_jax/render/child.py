@@ -53,9 +53,7 @@ def serve(stdin, stdout) -> None:
   if setup.get("samples") is not None:
     model.vis.quality.offsamples = int(setup["samples"])
   data = mujoco.MjData(model)
-  try:
-    for camera in cameras:  # an unknown camera fails here, not at the first frame
-      model.camera(camera)
+  try:  # (the pool has refused unknown cameras already)
     renderer = mujoco.Renderer(model, height, width)
   except Exception as e:  # whatever the GL stack or the model raised goes back to the parent
     send(stdout, dict(error=f"{type(e).__name__}: {e}"))
