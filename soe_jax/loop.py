@@ -38,6 +38,7 @@ from soe_jax.data import hdf5
 from soe_jax.data.episodes import EpisodeSet, build_buffer, from_rollout, policy_frames
 from soe_jax.envs import registry as env_registry
 from soe_jax.experts import collect
+from soe_jax.experts import registry as expert_registry
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.explore import select as select_lib
 from soe_jax.policies import normalizer as normalizer_lib
@@ -45,7 +46,7 @@ from soe_jax.policies.agent import Agent
 from soe_jax.rundir import RunDir, plain, start_keys
 
 # Per-round key streams.
-_FIT, _EXPLORE, _EVALUATE, _FIT_EVALUATE, _EXPERT = 1, 2, 3, 4, 5
+_FIT, _EXPLORE, _EVALUATE, _FIT_EVALUATE = 1, 2, 3, 4
 
 
 @functools.lru_cache(maxsize=8)
@@ -147,20 +148,22 @@ class Experiment:
     if "steered" in out["aux"]:
       rec["steered_fraction"] = float(out["aux"]["steered"].mean())
     if self.config.rounds.new_data == "expert":
-      return (*self.expert_episodes(state, r, reset_keys[keep], rec), self.shown(out))
+      return (*self.expert_episodes(reset_keys[keep], rec), self.shown(out))
     return rec, from_rollout(out, keep), self.shown(out)
 
-  def expert_episodes(self, state, r: int, reset_keys, rec: dict) -> tuple[dict, list[dict]]:
+  def expert_episodes(self, reset_keys, rec: dict) -> tuple[dict, list[dict]]:
     """The oracle's data: the scripted demonstrator's episodes from `reset_keys` (the start states an
-    exploration kept), its successful ones in place of the exploration's."""
+    exploration kept), run as the demonstrations are (one plan from the start state, not re-planned
+    at every decision as the `expert` strategy is: that one loses Square's nut on the peg's top), its
+    successful ones in place of the exploration's."""
     n = int(reset_keys.shape[0])
     rec = dict(rec, explored_episodes=rec["num_episodes"], num_episodes=0, expert_success_rate=None)
     if n == 0:
       return rec, []
-    expert = strategy_registry.make_strategy("expert", self.env)
-    out = self.rollout(state, expert, reset_keys, self.key(r, _EXPERT), f"round {r} expert data")
-    ok = out["success"].astype(bool)
-    return dict(rec, num_episodes=int(ok.sum()), expert_success_rate=float(ok.mean())), from_rollout(out, ok)
+    expert = expert_registry.make_expert(self.env.name)
+    batch = collect.run_demos(self.env, expert, reset_keys, progress=self.progress)
+    ok = batch["success"].astype(bool)
+    return dict(rec, num_episodes=int(ok.sum()), expert_success_rate=float(ok.mean())), collect.split_episodes(batch)
 
   def fit(self, buf, norm, r: int, init_state=None, steps: int | None = None):
     """Round 0 / scratch: fresh parameters, `fit.num_steps` at `fit.lr`; continue: from `init_state`,

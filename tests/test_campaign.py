@@ -66,6 +66,28 @@ def test_expert_data_trains_on_the_demonstrators_episodes_from_the_kept_states(s
     np.testing.assert_allclose(policy_episode(ep)["policy_obs"][0], start, atol=1e-6)
 
 
+@pytest.mark.slow
+def test_expert_data_on_square_is_the_demonstrators_plan_from_the_kept_states(tmp_path):
+  """Square's oracle data succeed from every kept start state (the re-planning `expert` strategy
+  succeeded on none of them: it leaves the nut resting on the peg's top)."""
+  import jax
+
+  from configs import square as square_config
+  from soe_jax.envs import manipulation
+
+  config = square_config.get_config("smoke,dp,expert_data")
+  config.env.episode_length = config.data.max_length = 400
+  config.rounds.update(num_rounds=1, round0_dir=str(tmp_path / "round0"))
+  exp = loop.Experiment(config, RunDir.create(str(tmp_path / "run"), config), progress=False)
+  keys = jax.random.split(jax.random.PRNGKey(5), 3)
+  rec, episodes = exp.expert_episodes(keys, dict(num_episodes=3))
+  assert rec["explored_episodes"] == 3 and rec["num_episodes"] == len(episodes) == 3
+  assert rec["expert_success_rate"] == 1.0 and all(ep["success"] for ep in episodes)
+  for ep, key in zip(episodes, keys):
+    start = manipulation.policy_obs(exp.env.reset(key).obs)
+    np.testing.assert_allclose(manipulation.policy_obs(ep["obs"], xp=np)[0], start, atol=1e-6)
+
+
 def _fake_run(path, method, seed, before, after, explored=(), jerk=3.0):
   """A finished one-round run directory with hand-made per-state outcomes (`explored`: per start
   state, its 2 tries)."""
