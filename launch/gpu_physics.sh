@@ -3,6 +3,8 @@
 #   bash launch/gpu_physics.sh receive         keep the carried part(s) of .ship/ in /tmp/ship
 #   bash launch/gpu_physics.sh run [BUDGET_S]  join the parts, install the wheels under /tmp/site and
 #                                              measure (launch/gpu_physics.py; default budget 290 s)
+#   SCRIPT=gpu_image bash launch/gpu_physics.sh run [BUDGET_S]   the same, measuring the image policy
+#                                              (launch/gpu_image.py) instead
 set -uo pipefail
 cd "$(dirname "$0")/.."
 mkdir -p /tmp/ship
@@ -17,4 +19,5 @@ if [ ! -d /tmp/site/mujoco ]; then
     /tmp/ship/wheels/*.whl || exit 1
 fi
 export PYTHONPATH=/tmp/site:$PWD PYTHONUNBUFFERED=1
-python3 launch/gpu_physics.py --budget="${2:-290}" --out="${OUT:-gpu-physics}"
+script=${SCRIPT:-gpu_physics}
+python3 "launch/$script.py" --budget="${2:-290}" --out="${OUT:-${script//_/-}}"

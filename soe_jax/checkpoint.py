@@ -3,7 +3,7 @@ statistics) plus the config as JSON, restorable into a ready-to-sample policy wi
 
   save(directory, state, config)
   agent = load(directory).agent                    # the acting policy
-  actions = agent.act(obs_history, key)            # raw (B, To, D) in, raw executed (B, Ta, A) out
+  actions = agent.act(obs_history, key)            # raw (B, To, D) in (`agent`), raw executed (B, Ta, A) out
 """
 
 from __future__ import annotations
@@ -32,9 +32,12 @@ FORMAT = 2
 
 
 def policy_from_config(config: ml_collections.ConfigDict) -> Policy:
-  """The policy a run's config describes, sized for its task and action mode."""
+  """The policy a run's config describes, sized for its task, action mode and images."""
   return make_policy(
-    config.policy, registry.observation_size(config.env.task), controller.action_size(config.env.action_mode)
+    config.policy,
+    registry.observation_size(config.env.task),
+    controller.action_size(config.env.action_mode),
+    int(config.env.get("image_size", 84)),
   )
 
 

@@ -47,7 +47,7 @@ def compare(configs: dict, workdir: str, num_start_states: int, tries: int, prog
     if shared is None:  # round 0, its record and its data: the same for every method
       demos, _, state = loop.round0(exp)
       base = read_json(exp.run.phase_path(0, "evaluate"))
-      shared = state, build_buffer(config, exp.policy, [EpisodeSet(demos, 0)])
+      shared = state, build_buffer(config, exp.policy, [EpisodeSet(demos, 0)], exp.env)
     state, buf = shared
     (rec, _, _), times = exp.timed(lambda: exp.explore(state, 1, buf))
     exp.timer.close()

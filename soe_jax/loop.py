@@ -235,7 +235,7 @@ class Experiment:
     """Round r's fit on `sets`, its policy saved with the record -> the fitted TrainState."""
 
     def work():
-      state, info = self.fit(build_buffer(self.config, self.policy, sets), norm, r, init_state, steps)
+      state, info = self.fit(build_buffer(self.config, self.policy, sets, self.env), norm, r, init_state, steps)
       return dict(info, num_episodes=sum(len(s.episodes) for s in sets)), state
 
     def save(state):
@@ -361,7 +361,7 @@ def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
     for r in range(1, int(config.rounds.num_rounds) + 1):
       clock.begin(r)
       if config.rounds.new_data != "none":  # (the control adds nothing)
-        buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)] + selected)
+        buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)] + selected, exp.env)
         selected.append(EpisodeSet(exp.explore_phase(r, state, buf)[1], r))
       sets = [EpisodeSet(demos, 0)] + selected + exp.run.steered_sets(r, config.rounds.steered == "successful")
       state = exp.fit_phase(r, sets, norm, state if config.rounds.refit == "continue" else None)

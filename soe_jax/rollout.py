@@ -13,7 +13,8 @@ fold_in(fold_in(key, s), j), and it may read the slice's key fold_in(key, s) (no
 decisions) from the state's `info["slice_key"]`, the control step from `info["steps"]`. The same keys
 and slice size give the same rollouts.
 
-Output (numpy, in the buffer's format): `obs` (N, H, D) raw policy observations before each action,
+Output (numpy, in the buffer's format): `obs` (N, H, D) raw low-dim policy observations before each
+action (an image policy's images are not kept: they are drawn again from the states where needed),
 `next_obs` (N, H, D) after it, `actions` (N, H, A), `eef_pos` (N, H + 1, 3) measured end-effector
 positions from the start, `qpos` (N, H, nq) simulator joint positions before each action, `states`
 (N, H, 1 + nq + nv) float64 the simulator state [time, qpos, qvel] before each action (robomimic's
@@ -44,7 +45,7 @@ class RolloutCarry(NamedTuple):
   """What the compiled decisions carry over a batch of B environments."""
 
   state: State  # the batched brax state
-  obs_history: jax.Array  # (B, To, D) raw policy observations, the latest last
+  obs_history: object  # raw policy observations (B, To, ...) (`agent`), the latest last
   done: jax.Array  # (B,) bool: succeeded or reached the episode length
   success: jax.Array  # (B,) bool
   length: jax.Array  # (B,) int32 actions taken while active
@@ -72,7 +73,7 @@ def decisions_fn(env: manipulation.ManipulationEnv, strategy: Strategy, n_action
       succeeded = active & (nxt.metrics["success"] > 0)
       c = RolloutCarry(
         state=nxt,
-        obs_history=agent_lib.push_history(c.obs_history, manipulation.policy_obs(nxt.obs)),
+        obs_history=agent_lib.push_history(c.obs_history, manipulation.policy_input(nxt.obs, agent.policy.image_keys)),
         done=c.done | succeeded | (c.t + 1 >= episode_length),
         success=c.success | succeeded,
         length=c.length + active.astype(jnp.int32),
@@ -96,12 +97,12 @@ def decisions_fn(env: manipulation.ManipulationEnv, strategy: Strategy, n_action
   return run
 
 
-def initial_carry(env, n_obs_steps: int, reset_keys) -> RolloutCarry:
+def initial_carry(env, n_obs_steps: int, reset_keys, image_keys: tuple[str, ...] = ()) -> RolloutCarry:
   state = jax.jit(jax.vmap(env.reset))(reset_keys)
   no = jnp.zeros(reset_keys.shape[0], bool)
   return RolloutCarry(
     state=state,
-    obs_history=agent_lib.initial_history(manipulation.policy_obs(state.obs), n_obs_steps),
+    obs_history=agent_lib.initial_history(manipulation.policy_input(state.obs, image_keys), n_obs_steps),
     done=no,
     success=no,
     length=jnp.zeros(reset_keys.shape[0], jnp.int32),
@@ -112,7 +113,7 @@ def initial_carry(env, n_obs_steps: int, reset_keys) -> RolloutCarry:
 def _run_slice(env, agent: Agent, strategy, reset_keys, key, decisions_per_call, bar):
   ta, episode_length = agent.policy.n_action_steps, env.episode_length
   total = -(-episode_length // ta)
-  carry = initial_carry(env, agent.policy.n_obs_steps, reset_keys)
+  carry = initial_carry(env, agent.policy.n_obs_steps, reset_keys, agent.policy.image_keys)
   start_eef = np.asarray(carry.state.obs["robot0_eef_pos"])
   records, auxes = [], []
   decided = 0

@@ -57,6 +57,9 @@ ADDED = {
   "env.mjx_max_batch": 8192,
   "env.mjx_settings": "",
   "log.videos": 0,
+  "env.obs_mode": "low_dim",
+  "env.image_size": 84,
+  "data.image_frames": 0,
 }
 # Sections a run may resume with other settings in: they change how it is logged, not what it does.
 NOT_COMPARED = ("log.", "env.mjx_max_batch")

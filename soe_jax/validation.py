@@ -32,6 +32,7 @@ NON_NEGATIVE = (
   "fit.warmup_steps",
   "fit.checkpoint_every",
   "log.videos",
+  "data.image_frames",
   "fit.eval_every",
   "rounds.refit_lr",
   "rounds.length_cap",
@@ -84,12 +85,35 @@ def problems(config: ml_collections.ConfigDict) -> list[str]:
       f"policy.n_action_steps ({p.n_action_steps}) must be at most policy.horizon - policy.n_obs_steps + 1 "
       f"({p.horizon - p.n_obs_steps + 1}): the executed actions lie inside the predicted chunk"
     )
+  out += _images(config)
   if config.data.capacity < config.data.num_demos:
     out.append(f"data.capacity ({config.data.capacity}) must hold data.num_demos ({config.data.num_demos})")
   if config.log.wandb and importlib.util.find_spec("wandb") is None:
     out.append("log.wandb needs wandb, which is not installed: pip install -e '.[wandb]'")
   if config.data.hdf5_path and not out:
     out += _demonstration_file(config)
+  return out
+
+
+def _images(config) -> list[str]:
+  """The observation mode is known, and an image encoder reads images the task draws, in crops that fit."""
+  mode, enc = config.env.obs_mode, config.policy.encoder
+  if mode not in manipulation.OBS_MODES:
+    return [f"unknown env.obs_mode {mode!r}; known observation modes: {', '.join(manipulation.OBS_MODES)}"]
+  if enc.name != "image":
+    return []
+  out = []
+  if mode != "image":
+    out.append("policy.encoder 'image' reads camera images: set env.obs_mode='image' (the `image` preset does)")
+  cameras = list(enc.kwargs.get("cameras", manipulation.IMAGE_KEYS))
+  unknown = [c for c in cameras if c not in manipulation.IMAGE_KEYS]
+  if unknown:
+    out.append(f"unknown camera images {', '.join(map(repr, unknown))}; the tasks draw {', '.join(manipulation.IMAGE_KEYS)}")
+  crop = enc.kwargs.get("crop_size", 76)
+  if not 0 < crop <= config.env.image_size:
+    out.append(f"policy.encoder.kwargs.crop_size ({crop}) must be in 1..env.image_size ({config.env.image_size})")
+  if config.data.image_frames < 1:
+    out.append("data.image_frames must be at least 1 for an image policy (the frames of images the buffer holds)")
   return out
 
 

@@ -64,6 +64,8 @@ def test_steer_a_proposal_and_save_it_from_the_browser(page_server):
     page.goto(url)
     page.wait_for_selector("body[data-ready=true]")  # the first frame is drawn
     assert page.inner_text("#step") == "0" and not page.is_visible("#placeholder")
+    # The in-hand view beside the scene, drawn at the page's size.
+    page.wait_for_function(f"document.getElementById('hand').naturalWidth === {session.image_size}")
     assert "How to steer" in page.inner_text(".help")
     latent = len(session.snr)  # one bar per latent dimension, the threshold drawn, the rest marked
     assert page.locator("#chart .row").count() == latent and page.locator("#threshold").count() == 1

@@ -43,7 +43,7 @@ def run(
   workdir = workdir or os.path.join("runs", "latent", f"{rundir.round0_key(config)}-{config.explore.strategy.name}")
   with loop.opened(config, workdir, progress) as exp:
     demos, _, state = loop.round0(exp)
-    buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)])
+    buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)], exp.env)
 
     def latent():
       snr = [round(float(x), 3) for x in steering.buffer_snr(exp.agent(state), buf, exp.key(0, _SNR), windows)]

@@ -2,7 +2,8 @@
 
 `fit` times whole compiled chunks of SGD steps (window sampling from an episode buffer, normalisation,
 forward, backward, AdamW, EMA when on) and reports the mean per step; `sample` times one base-path
-action chunk (the configured sampler with `steps` denoising steps)."""
+action chunk (the configured sampler with `steps` denoising steps). An image policy's data hold
+random uint8 images too (`--config=configs/TASK.py:image`)."""
 
 from __future__ import annotations
 
@@ -33,8 +34,17 @@ def _random_setup(config, key):
   buf = buffer_lib.add(
     buffer_lib.create(n, length, obs_dim, action_dim), obs, actions, np.full(n, length), np.ones(n, bool), 0
   )
+  if policy.image_keys:
+    shape = (length,) + policy.example_obs["images"][policy.image_keys[0]].shape[2:]
+    images = [{k: rng.integers(0, 256, shape, np.uint8) for k in policy.image_keys} for _ in range(n)]
+    buf = buffer_lib.with_images(buf, images, n * length)
   norm = normalizer_lib.fit(obs.reshape(-1, obs_dim), actions.reshape(-1, action_dim))
   return policy, policy.init(key), buf, norm
+
+
+def _zero_obs(policy, batch: int):
+  """A batch of all-zero observation histories in the policy's form."""
+  return jax.tree.map(lambda x: jnp.zeros((batch,) + x.shape[1:], x.dtype), policy.example_obs)
 
 
 def fit(config: ml_collections.ConfigDict, bypass: bool, ema: bool, steps: int = 10, repeats: int = 2) -> dict:
@@ -55,6 +65,7 @@ def fit(config: ml_collections.ConfigDict, bypass: bool, ema: bool, steps: int =
   return dict(
     bench="fit",
     task=config.env.task,
+    obs_encoder=config.policy.encoder.name,
     head=config.policy.head.name,
     down_dims=list(config.policy.head.kwargs.get("down_dims", [])),
     batch_size=config.fit.batch_size,
@@ -73,7 +84,7 @@ def sample(config: ml_collections.ConfigDict, batch: int, steps: int, repeats: i
   if "num_inference_steps" in config.policy.head.kwargs:
     config.policy.head.kwargs.num_inference_steps = steps
   policy, params, _, _ = _random_setup(config, jax.random.PRNGKey(0))
-  obs = jnp.zeros((batch, policy.n_obs_steps, policy.obs_dim))
+  obs = _zero_obs(policy, batch)
   fn = jax.jit(policy.sample)
   t = time.perf_counter()
   jax.block_until_ready(fn(params, obs, jax.random.PRNGKey(0)))

@@ -43,6 +43,27 @@ def from_rollout(out: dict, mask) -> list[dict]:
   return from_batch(obs, out["actions"], out["states"], out["length"], out["success"], mask, next_obs)
 
 
+def draw_images(env, episodes: list[dict], keys: tuple[str, ...]) -> list[dict]:
+  """Each episode's camera images `keys` at its states (the task's renderer, `env.draw`), put into
+  its `obs` where it lacks them (a file's own images stay) -> the same episodes. All frames are drawn
+  in one batch, spread over the renderer's processes."""
+  todo = [ep for ep in episodes if any(k not in ep["obs"] for k in keys)]
+  if not todo:
+    return episodes
+  if any("states" not in ep for ep in todo):
+    raise ValueError("an episode without simulator states has no images to draw; image policies need states")
+  nq = env.mj_model.nq
+  qpos = np.concatenate([np.asarray(ep["states"])[:, 1 : 1 + nq] for ep in todo])
+  drawn = env.draw(qpos)
+  start = 0
+  for ep in todo:
+    t = len(ep["states"])
+    for k in keys:
+      ep["obs"].setdefault(k, drawn[k][start : start + t])
+    start += t
+  return episodes
+
+
 def policy_episode(ep: dict) -> dict:
   """An episode -> {"policy_obs" (T, D), "actions" (T, A)} for the buffer."""
   return {"policy_obs": manipulation.policy_obs(ep["obs"], xp=np), "actions": np.asarray(ep["actions"], np.float32)}
@@ -54,8 +75,10 @@ def policy_frames(episodes: list[dict]) -> tuple[np.ndarray, np.ndarray]:
   return np.concatenate([e["policy_obs"] for e in flat]), np.concatenate([e["actions"] for e in flat])
 
 
-def build_buffer(config: ml_collections.ConfigDict, policy, sets: list[EpisodeSet]) -> buffer_lib.EpisodeBuffer:
-  """A buffer of `config.data.capacity` episodes of at most `config.data.max_length` steps holding `sets`."""
+def build_buffer(config: ml_collections.ConfigDict, policy, sets: list[EpisodeSet], env=None) -> buffer_lib.EpisodeBuffer:
+  """A buffer of `config.data.capacity` episodes of at most `config.data.max_length` steps holding `sets`;
+  for an image policy with its episodes' images too (`config.data.image_frames` frames of them, drawn
+  by `env`'s renderer where an episode lacks them, and kept in the episode: `draw_images`)."""
   buf = buffer_lib.create(int(config.data.capacity), int(config.data.max_length), policy.obs_dim, policy.action_dim)
   total = sum(len(s.episodes) for s in sets)
   if total > buf.capacity:
@@ -65,4 +88,11 @@ def build_buffer(config: ml_collections.ConfigDict, policy, sets: list[EpisodeSe
       n = len(s.episodes)
       p = buffer_lib.pad_episodes([policy_episode(e) for e in s.episodes], buf.max_length)
       buf = buffer_lib.add(buf, p["obs"], p["actions"], p["length"], np.ones(n, bool), s.source, np.full(n, s.steered))
+  if policy.image_keys:
+    if env is None:
+      raise ValueError("an image policy's buffer needs the task (env=...) to draw its episodes' images")
+    stored = [ep for s in sets for ep in s.episodes]
+    draw_images(env, stored, policy.image_keys)
+    images = [{k: np.asarray(ep["obs"][k], np.uint8) for k in policy.image_keys} for ep in stored]
+    buf = buffer_lib.with_images(buf, images, int(config.data.image_frames))
   return buf

@@ -6,7 +6,9 @@ Exports the data the fit of round R (default: the run's last) trained on, as the
 the demonstrations, the episodes each round up to R kept, and the steered episodes the fit took.
 Formats:
 - `robomimic`: one HDF5 file (`soe_jax/data/hdf5.py`), the episodes in that order, with a filter key
-  per group: `demos`, `round_<r>`, `steered_<r>` (robomimic's `filter_by_attribute` takes one);
+  per group: `demos`, `round_<r>`, `steered_<r>` (robomimic's `filter_by_attribute` takes one); an
+  image run's episodes with robomimic's image keys too (`agentview_image`, `robot0_eye_in_hand_image`,
+  uint8 (T, 84, 84, 3)), drawn from their states as the run's policy saw them;
 - `zarr`: Diffusion Policy's replay buffer (`soe_jax/data/zarr_store.py`), each episode's group in
   `meta/episode_source` and `meta/episode_steered`;
 - `rlds`: an RLDS dataset through tensorflow-datasets (`soe_jax/data/rlds.py`), each episode's group in
@@ -24,7 +26,7 @@ from absl import app, flags
 
 from soe_jax import cli
 from soe_jax.data import hdf5, rlds, zarr_store
-from soe_jax.data.episodes import EpisodeSet
+from soe_jax.data.episodes import EpisodeSet, draw_images
 from soe_jax.errors import UserError
 
 FORMATS = ("robomimic", "zarr", "rlds")
@@ -109,6 +111,14 @@ def export(workdir: str, fmt: str, out: str, r: int | None = None) -> tuple[list
   if fmt not in FORMATS:
     raise UserError(f"unknown format {fmt!r}; known formats: {', '.join(FORMATS)}")
   sets, meta = run_sets(workdir, r)
+  if fmt == "robomimic" and meta["env_kwargs"].get("obs_mode") == "image":
+    import ml_collections
+
+    from soe_jax.envs import manipulation
+    from soe_jax.envs import registry as env_registry
+
+    env = env_registry.env_from_config(ml_collections.ConfigDict(dict(meta["env_kwargs"], backend="mujoco")))
+    draw_images(env, [ep for s in sets for ep in s.episodes], manipulation.IMAGE_KEYS)
   {"robomimic": write_robomimic, "zarr": zarr_store.write, "rlds": rlds.write}[fmt](out, sets, meta)
   return sets, meta
 

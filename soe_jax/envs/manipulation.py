@@ -59,6 +59,7 @@ PHYSICS_DT = 0.002
 AGENTVIEW = dict(pos="0.5 0 1.35", quat="0.653 0.271 0.271 0.653")
 OBS_MODES = ("low_dim", "image")
 CAMERAS = ("agentview", panda.EYE_IN_HAND)  # image observation `<camera>_image` for each
+IMAGE_KEYS = tuple(f"{c}_image" for c in CAMERAS)
 
 
 def base_config() -> ml_collections.ConfigDict:
@@ -97,6 +98,19 @@ def policy_obs(obs: dict, xp=jnp) -> jax.Array:
   """The policy's observation vector: the four low-dim keys concatenated, (..., 19 or 23); `xp=np` on
   the host."""
   return xp.concatenate([xp.asarray(obs[k], xp.float32) for k in POLICY_OBS_KEYS], axis=-1)
+
+
+def policy_input(obs: dict, image_keys: tuple[str, ...] = (), xp=jnp):
+  """What a policy reads of the observations: the low-dim vector (`policy_obs`), or for a policy of
+  camera images (`image_keys`, e.g. `IMAGE_KEYS`) {"lowdim": that vector, "images": {key: (..., H, W,
+  3) uint8}}, the form an image policy's observation histories, buffer windows and normaliser take."""
+  vector = policy_obs(obs, xp)
+  if not image_keys:
+    return vector
+  missing = [k for k in image_keys if k not in obs]
+  if missing:
+    raise ValueError(f"the policy reads images {', '.join(missing)}, which these observations lack (obs_mode='image' draws them)")
+  return {"lowdim": vector, "images": {k: obs[k] for k in image_keys}}
 
 
 class ManipulationEnv(Env):
@@ -145,7 +159,7 @@ class ManipulationEnv(Env):
     self.obs_mode = self.config.obs_mode
     self.image_size = int(self.config.image_size)
     self.cameras = CAMERAS if self.obs_mode == "image" else ()
-    self.image_keys = tuple(f"{c}_image" for c in self.cameras)
+    self.image_keys = tuple(f"{c}_image" for c in self.cameras)  # (IMAGE_KEYS in image mode)
     # Started on the first image; `render_seconds` is the time spent drawing, for benchmarks.
     # No multisampling: the images are the policy's input, and llvmpipe draws them 2x faster without.
     self.renderer = pool.Renderer(self.mj_model, self.cameras, self.image_size, samples=0) if self.cameras else None
@@ -295,9 +309,13 @@ class ManipulationEnv(Env):
   def _images(self, qpos: jax.Array) -> dict:
     """{`<camera>_image`: (..., size, size, 3) uint8} at joint positions `qpos` (..., nq), drawn on the host."""
     shape = jax.ShapeDtypeStruct(qpos.shape[:-1] + (self.image_size, self.image_size, 3), jnp.uint8)
-    return jax.pure_callback(self._host_images, {k: shape for k in self.image_keys}, qpos, vmap_method="broadcast_all")
+    return jax.pure_callback(self.draw, {k: shape for k in self.image_keys}, qpos, vmap_method="broadcast_all")
 
-  def _host_images(self, qpos) -> dict:
+  def draw(self, qpos) -> dict:
+    """The cameras' images at joint positions `qpos` (..., nq) on the host: {`<camera>_image`: (...,
+    size, size, 3) uint8 numpy}, as the observations hold them (e.g. an episode's, from its states)."""
+    if self.renderer is None:
+      raise ValueError(f"the {self.name} task was made with obs_mode={self.obs_mode!r}: it has no cameras to draw")
     t0 = time.perf_counter()
     qpos = np.asarray(qpos)
     images = self.renderer.render(qpos.reshape(-1, qpos.shape[-1]))

@@ -26,15 +26,20 @@ def noise_std(u: jax.Array, scale: float, tau1: float = 0.0, tau2: float = 1.0) 
 
 
 def cond_fn(policy: Policy, normalizer: Normalizer, scale: float, tau1: float = 0.0, tau2: float = 1.0) -> CondFn:
-  """c' = c + s (1 - gamma(u_i)) n with fresh n ~ N(0, I) at every denoising call i. SIME's s is in raw
-  observation units; the low-dim conditioning is normalised, so each dimension's noise is scaled by
-  that dimension's normalisation scale (d c = scale * d o), the same physical perturbation."""
-  if policy.cond_dim != policy.n_obs_steps * policy.obs_dim:
+  """c' = c + s (1 - gamma(u_i)) n with fresh n ~ N(0, I) at every denoising call i. For a low-dim
+  policy SIME's s is in raw observation units; the conditioning is normalised, so each dimension's
+  noise is scaled by that dimension's normalisation scale (d c = scale * d o), the same physical
+  perturbation. For an image policy, as SIME's code runs image tasks (`specs/sime_baseline.md`), one s
+  (SIME's 0.5) applies to the whole conditioning: every frame's image features and its low-dim vector."""
+  if policy.image_keys:
+    per_dim = jnp.ones(policy.cond_dim)
+  elif policy.cond_dim == policy.n_obs_steps * policy.obs_dim:
+    per_dim = jnp.tile(normalizer.obs_scale, policy.n_obs_steps)
+  else:
     raise ValueError(
       "sime perturbs the low-dim conditioning; this policy's encoder gives "
       f"{policy.cond_dim} features for {policy.n_obs_steps} x {policy.obs_dim} observations"
     )
-  per_dim = jnp.tile(normalizer.obs_scale, policy.n_obs_steps)
 
   def fn(cond, step_index, key):
     std = noise_std(policy.head.progress(step_index), scale, tau1, tau2)
@@ -45,7 +50,7 @@ def cond_fn(policy: Policy, normalizer: Normalizer, scale: float, tau1: float = 
 
 @dataclasses.dataclass(frozen=True)
 class Sime(Strategy):
-  scale: float = 0.01  # SIME's raw-unit noise scale for state tasks
+  scale: float = 0.01  # SIME's raw-unit noise scale for state tasks (0.5 for image tasks: the `image` preset)
   tau1: float = 0.0
   tau2: float = 1.0
   name = "sime"

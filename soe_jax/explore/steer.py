@@ -15,6 +15,7 @@ from soe_jax.experts import registry as expert_registry
 from soe_jax.experts import script
 from soe_jax.explore import expert as expert_strategy
 from soe_jax.explore import steering
+from soe_jax.policies import agent as agent_lib
 from soe_jax.types import Chooser, Strategy
 
 
@@ -89,7 +90,7 @@ class SoeSteer(Strategy):
     return candidates(agent, obs_history, key, dims, self.alpha, self.num_proposals, self.num_choices)
 
   def __call__(self, agent, obs_history, env_state, key):
-    b = obs_history.shape[0]
+    b = agent_lib.batch_size(obs_history)
     decision = env_state.info["steps"][0] // agent.policy.n_action_steps  # the batch decides together
     key_base, key_steer, key_choose = jax.random.split(key, 3)
 

@@ -9,6 +9,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -56,9 +58,20 @@ def farthest_point_sampling(paths: jax.Array, num: int, first: int = 0) -> jax.A
   return jnp.concatenate([jnp.array([first]), rest])
 
 
-def latent_snr(agent, obs_history: jax.Array) -> jax.Array:
-  """(d,) SNR in dB of an agent's latent over raw observation histories (N, To, D)."""
-  return snr_db(*agent.latent(obs_history))
+@functools.partial(jax.jit, static_argnames="batch_size")
+def _latents(agent, obs_history, batch_size: int):
+  def one(obs):  # a single history -> its latent's mu, log_std (d,)
+    mu, log_std = agent.latent(jax.tree.map(lambda x: x[None], obs))
+    return mu[0], log_std[0]
+
+  return jax.lax.map(one, obs_history, batch_size=batch_size)
+
+
+def latent_snr(agent, obs_history, batch_size: int = 256) -> jax.Array:
+  """(d,) SNR in dB of an agent's latent over raw observation histories (N, To, ...), encoded
+  `batch_size` at a time (an image encoder's activations for thousands of histories at once would not
+  fit in memory)."""
+  return snr_db(*_latents(agent, obs_history, batch_size))
 
 
 def buffer_snr(agent, buf, key: jax.Array, num_windows: int) -> jax.Array:

@@ -4,7 +4,8 @@ Every path from raw observations to raw actions goes through here: normalise the
 (B, To, D), sample normalised actions (B, T, A), unnormalise them. `act` means the executed actions,
 Diffusion Policy's chunk[To-1 : To-1+Ta] (B, Ta, A), which the rollout runs open loop; `chunk` is the
 whole predicted chunk. The observation history holds the last To policy observations, the first one
-repeated at reset.
+repeated at reset: (B, To, D), or for an image policy {"lowdim": (B, To, D), "images": {key: (B, To,
+H, W, 3) uint8}} (`manipulation.policy_input`).
 """
 
 from __future__ import annotations
@@ -60,11 +61,17 @@ class Agent:
     return self.normalizer.unnormalize_actions(actions)
 
 
-def initial_history(obs: jax.Array, n_obs_steps: int) -> jax.Array:
-  """(B, D) the first policy observations -> (B, To, D), the first one repeated."""
-  return jnp.repeat(obs[:, None], n_obs_steps, axis=1)
+def initial_history(obs, n_obs_steps: int):
+  """(B, ...) the first policy observations (each array of either form) -> (B, To, ...), the first one
+  repeated."""
+  return jax.tree.map(lambda x: jnp.repeat(x[:, None], n_obs_steps, axis=1), obs)
 
 
-def push_history(history: jax.Array, obs: jax.Array) -> jax.Array:
-  """Drop the oldest of (B, To, D) and append (B, D)."""
-  return jnp.concatenate([history[:, 1:], obs[:, None]], axis=1)
+def push_history(history, obs):
+  """Drop the oldest of (B, To, ...) and append (B, ...)."""
+  return jax.tree.map(lambda h, x: jnp.concatenate([h[:, 1:], x[:, None]], axis=1), history, obs)
+
+
+def batch_size(obs_history) -> int:
+  """B of an observation history of either form."""
+  return jax.tree.leaves(obs_history)[0].shape[0]

@@ -9,7 +9,8 @@ only shifted to 0. Observations are not clipped after scaling: an off-distributi
 visibly out of range (`out_of_range_fraction` measures how much); actions are clipped to [-1, 1] for
 training, as the sampler clips its output. Statistics come from the demonstrations once and are
 stored with the parameters. (Diffusion Policy's low-dim code uses one global scale for observations;
-that quirk is not copied.)
+that quirk is not copied.) An image policy's observations {"lowdim", "images"} have their low-dim
+vector normalised so, and their uint8 images mapped to [0, 1] (Diffusion Policy's image scaling).
 """
 
 from __future__ import annotations
@@ -29,6 +30,10 @@ class Normalizer:
   act_offset: jnp.ndarray
 
   def normalize_obs(self, obs):
+    """Raw policy observations (..., D), or {"lowdim": (..., D), "images": {key: (..., H, W, 3) uint8}}."""
+    if isinstance(obs, dict):
+      images = {k: v.astype(jnp.float32) / 255.0 for k, v in obs["images"].items()}
+      return {"lowdim": self.normalize_obs(obs["lowdim"]), "images": images}
     return obs * self.obs_scale + self.obs_offset
 
   def normalize_actions(self, actions):
@@ -39,12 +44,18 @@ class Normalizer:
 
   def out_of_range_fraction(self, obs, mask=None):
     """The fraction of normalised observation features outside [-1, 1] over raw obs (..., D), counting
-    only the frames where `mask` (...) is set (default all)."""
+    only the frames where `mask` (...) is set (default all); of an image policy's, the low-dim vector's."""
+    obs = lowdim(obs)
     out = jnp.abs(self.normalize_obs(obs)) > 1.0
     if mask is None:
       return jnp.mean(out.astype(jnp.float32))
     mask = jnp.asarray(mask, jnp.float32)[..., None]
     return jnp.sum(out * mask) / jnp.maximum(jnp.sum(mask) * obs.shape[-1], 1.0)
+
+
+def lowdim(obs):
+  """The low-dim vector of policy observations in either form (`normalize_obs`)."""
+  return obs["lowdim"] if isinstance(obs, dict) else obs
 
 
 def _limits(x: np.ndarray, margin: float, min_span=None):

@@ -7,7 +7,9 @@ Gradient separation is exact: c enters p_theta through a stop-gradient and the h
 the IB path through a stop-gradient, so L_IB never changes E or D; L_IL does not touch p_theta, q_phi.
 With the bypass off (the plain Diffusion Policy baseline) only L_IL is trained.
 
-All functions take normalised observations (B, To, D) and return normalised actions (B, T, A).
+All functions take normalised observations (B, To, D) (an image policy's: {"lowdim": (B, To, D),
+"images": {key: (B, To, H, W, 3) in [0, 1]}}, `image_keys` naming its cameras' images) and return
+normalised actions (B, T, A).
 """
 
 from __future__ import annotations
@@ -44,6 +46,8 @@ class Policy:
   # The share of each batch the IB path's head loss is computed on (its first rows, a random subset of
   # the sampled windows): the bypass's extra head pass costs that share of a full one.
   bypass_fraction: float = 1.0
+  # The camera images the encoder reads, beside the low-dim vector (none for a low-dim policy).
+  image_keys: tuple[str, ...] = ()
   # A batch of one observation history in the encoder's format (arrays: left out of hashing).
   example_obs: object = dataclasses.field(default=None, compare=False, hash=False)
 
@@ -106,18 +110,19 @@ class Policy:
     return actions, z
 
 
-def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int) -> Policy:
+def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int, image_size: int = 84) -> Policy:
   """From `config.policy`-shaped settings: head {name, kwargs}, encoder {name, kwargs}, bypass
-  {enabled, latent_dim, hidden, beta, batch_fraction}, n_obs_steps, horizon, n_action_steps."""
+  {enabled, latent_dim, hidden, beta, batch_fraction}, n_obs_steps, horizon, n_action_steps; an image
+  encoder's images are `image_size` pixels square."""
   head = registry.make_head(
     config.head.name, action_dim=action_dim, horizon=config.horizon, **config.head.get("kwargs", {})
   )
   encoder = registry.make_encoder(config.encoder.name, **config.encoder.get("kwargs", {}))
   example = jnp.zeros((1, config.n_obs_steps, obs_dim))
-  if config.encoder.name == "image":
-    size = config.encoder.get("image_size", 84)
-    cams = encoder.cameras
-    example = {"images": {c: jnp.zeros((1, config.n_obs_steps, size, size, 3)) for c in cams}, "lowdim": example}
+  image_keys = tuple(encoder.cameras) if config.encoder.name == "image" else ()
+  if image_keys:
+    shape = (1, config.n_obs_steps, image_size, image_size, 3)
+    example = {"images": {k: jnp.zeros(shape) for k in image_keys}, "lowdim": example}
   cond_dim = jax.eval_shape(lambda: encoder.init_with_output(jax.random.PRNGKey(0), example)[0]).shape[-1]
   bp = config.bypass
   return Policy(
@@ -134,5 +139,6 @@ def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int
     beta=float(bp.beta),
     cond_dim=int(cond_dim),
     bypass_fraction=float(bp.get("batch_fraction", 1.0)),
+    image_keys=image_keys,
     example_obs=example,
   )

@@ -21,6 +21,8 @@ def make_head(name: str, action_dim: int, horizon: int, **kwargs) -> Head:
 
 
 def make_encoder(name: str, **kwargs) -> nn.Module:
+  # Sequences as tuples (a config read back from JSON has lists), so the module hashes.
+  kwargs = {k: tuple(v) if isinstance(v, list) else v for k, v in kwargs.items()}
   return ENCODERS.make(name, **kwargs)
 
 

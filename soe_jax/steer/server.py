@@ -3,6 +3,7 @@
   GET  /                 the page
   GET  /api/state        the session's view (JSON)
   GET  /api/frame.png    the scene from the fixed camera
+  GET  /api/hand.png     the scene from the wrist camera (the in-hand view)
   POST /api/proposals    {"dim": i, "round": r}      proposals along dimension i
   POST /api/execute      {"id": "...", "round": r}   run one proposal
   POST /api/finish | /api/reset {"seed": s} | /api/save {"round": r}
@@ -18,6 +19,7 @@ import sys
 import threading
 from http.server import BaseHTTPRequestHandler, HTTPServer
 
+from soe_jax.envs import panda
 from soe_jax.steer.session import SteeringError, SteeringSession
 
 PAGE = """<!doctype html>
@@ -52,6 +54,7 @@ episode to the run's data; the next round's fit takes <span id="used"></span> st
 <div id="panels">
  <div id="scene"><div id="placeholder">rendering the scene&hellip;</div>
   <img id="frame" alt="scene"><svg id="overlay" viewBox="0 0 SIZE SIZE"></svg></div>
+ <div class="panel"><h3>In-hand view</h3><img id="hand" alt="in-hand view" width="192" height="192"></div>
  <div class="panel">
   <h3>Latent dimensions: signal-to-noise ratio</h3>
   <svg id="chart" width="380" height="10"></svg>
@@ -114,6 +117,7 @@ function render(v) {
     `step <span id="step">${v.step}</span> / ${v.episode_length}` + (v.success ? " &mdash; <b id='success'>success</b>" : "") +
     (v.finished ? " &mdash; episode over" : "") + ` &mdash; saved episodes: <span id="saved">${v.saved}</span>`;
   document.getElementById("frame").src = "/api/frame.png?t=" + Date.now();
+  document.getElementById("hand").src = "/api/hand.png?t=" + Date.now();
   chart(v);
   document.getElementById("dims").innerHTML = v.dims.map(d =>
     `<button class="dim${d.dim === v.chosen_dim ? " chosen" : ""}" id="dim-${d.dim}" data-dim="${d.dim}">dim ${d.dim} (${d.snr_db} dB)</button>`).join("");
@@ -173,6 +177,8 @@ def make_handler(session: SteeringSession):
           self._json(200, session.view())
         elif path == "/api/frame.png":
           self._send(200, session.image_png(), "image/png")
+        elif path == "/api/hand.png":
+          self._send(200, session.image_png(panda.EYE_IN_HAND), "image/png")
         else:
           self._json(404, {"error": f"no page {path}"})
 

@@ -24,15 +24,17 @@ import numpy as np
 from soe_jax import checkpoint
 from soe_jax.data import hdf5
 from soe_jax.data.episodes import EpisodeSet, build_buffer
-from soe_jax.envs import manipulation
+from soe_jax.envs import manipulation, panda
 from soe_jax.envs import registry as env_registry
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.explore import steering
 from soe_jax.policies import agent as agent_lib
+from soe_jax.policies.normalizer import lowdim
 from soe_jax.render.pool import Renderer
 from soe_jax.rundir import RunDir
 
 IMAGE_SIZE = 384
+VIEWS = ("agentview", panda.EYE_IN_HAND)  # the page's views: the scene, and the wrist camera's
 
 
 class SteeringError(ValueError):
@@ -55,13 +57,13 @@ class SteeringSession:
     self.steer = strategy_registry.steering_strategy(self.config.explore.strategy, self.env)
     # One program for every dimension (the dimension is an argument, not a constant).
     self._candidates = jax.jit(lambda agent, hist, key, dim: self.steer.candidates(agent, hist, key, (dim,)))
-    buf = build_buffer(self.config, self.policy, [EpisodeSet(self.run.demonstrations(), 0)])
+    buf = build_buffer(self.config, self.policy, [EpisodeSet(self.run.demonstrations(), 0)], self.env)
     self.snr = np.asarray(self.steer.snr(self.agent, buf, jax.random.PRNGKey(0)))
     # With no dimension above the threshold: the strongest (the page says it carries little signal).
     self.dims = steering.effective_dims(self.snr, self.steer.threshold_db) or (int(np.argmax(self.snr)),)
     self.image_size = image_size
     # The process that draws (started on first use): rendering stays out of this process, which compiles XLA.
-    self.frames = Renderer(self.env.mj_model, ["agentview"], image_size, processes=1)
+    self.frames = Renderer(self.env.mj_model, VIEWS, image_size, processes=1)
     self.data = mujoco.MjData(self.env.mj_model)
     self.saved = 0
     self.last_saved = None  # {"success": bool, "used": bool} of the episode saved last
@@ -79,7 +81,7 @@ class SteeringSession:
     self.seed = int(seed)
     self.key = jax.random.fold_in(jax.random.PRNGKey(int(self.config.seed) + 7), self.seed)
     self.state = self._reset(jax.random.split(jax.random.PRNGKey(self.seed), 1))
-    self.hist = agent_lib.initial_history(manipulation.policy_obs(self.state.obs), self.policy.n_obs_steps)
+    self.hist = agent_lib.initial_history(self._policy_input(), self.policy.n_obs_steps)
     self.episode = dict(obs=[], next_obs=[], actions=[], states=[])
     self.eef = [np.asarray(self.state.obs["robot0_eef_pos"][0])]
     self.success = False
@@ -87,6 +89,9 @@ class SteeringSession:
     self.decision = 0
     self.proposal_set = None  # (dim, candidates (C, Ta, A), token)
     return self.view()
+
+  def _policy_input(self):
+    return manipulation.policy_input(self.state.obs, self.policy.image_keys)
 
   def _check_round(self, round_) -> None:
     if round_ is not None and int(round_) != self.round:
@@ -121,14 +126,14 @@ class SteeringSession:
         f"unknown proposal {proposal_id!r}; the current ones are {token}-0 .. {token}-{len(cands) - 1}"
       )
     for action in cands[int(index)]:
-      self.episode["obs"].append(np.asarray(self.hist[0, -1]))
+      self.episode["obs"].append(np.asarray(lowdim(self.hist)[0, -1]))
       self.episode["states"].append(
         self.env.physics.sim_state_float64(self.env.physics.sim_state(self.state.pipeline_state))[0]
       )
       self.episode["actions"].append(np.asarray(action))
       self.state = self._step(self.state, jnp.asarray(action)[None])
-      self.hist = agent_lib.push_history(self.hist, manipulation.policy_obs(self.state.obs))
-      self.episode["next_obs"].append(np.asarray(self.hist[0, -1]))
+      self.hist = agent_lib.push_history(self.hist, self._policy_input())
+      self.episode["next_obs"].append(np.asarray(lowdim(self.hist)[0, -1]))
       self.eef.append(np.asarray(self.state.obs["robot0_eef_pos"][0]))
       if bool(self.state.metrics["success"][0] > 0):
         self.success = True
@@ -193,8 +198,11 @@ class SteeringSession:
     f = 0.5 * size / np.tan(np.deg2rad(fovy) / 2)
     return [[float(size / 2 + f * x / -z), float(size / 2 - f * y / -z)] for x, y, z in c]
 
-  def image_png(self) -> bytes:
-    image = self.frames.render(self.state.pipeline_state.qpos[0])["agentview"]
+  def image_png(self, view: str = "agentview") -> bytes:
+    """The scene now from one of `VIEWS` (the fixed camera by default), as PNG."""
+    if view not in VIEWS:
+      raise SteeringError(f"unknown view {view!r}; the views: {', '.join(VIEWS)}")
+    image = self.frames.render(self.state.pipeline_state.qpos[0])[view]
     buf = io.BytesIO()
     matplotlib.image.imsave(buf, image, format="png")
     return buf.getvalue()

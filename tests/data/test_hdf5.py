@@ -117,3 +117,20 @@ def test_the_written_file_is_what_robomimic_reads_and_masks_choose_episodes(tmp_
   with pytest.raises(ValueError, match=r"mask 'x' names episodes outside 0..3"):
     hdf5.write_episodes(str(tmp_path / "bad.hdf5"), episodes, meta, masks={"x": [4]})
   assert not (tmp_path / "bad.hdf5").exists()
+
+
+def test_camera_images_travel_under_robomimics_image_keys_as_uint8(tmp_path):
+  rng = np.random.default_rng(0)
+  images = rng.integers(0, 256, (5, 84, 84, 3), np.uint8)
+  ep = dict(
+    obs={"robot0_eef_pos": rng.normal(size=(5, 3)).astype(np.float32), "agentview_image": images},
+    actions=np.zeros((5, 10), np.float32),
+  )
+  path = str(tmp_path / "images.hdf5")
+  hdf5.write_episodes(path, [ep], dict(env_name="lift"))
+  with h5py.File(path) as f:
+    assert f["data/demo_0/obs/agentview_image"].dtype == np.uint8
+    np.testing.assert_array_equal(f["data/demo_0/next_obs/agentview_image"][:4], images[1:])
+  back, _ = hdf5.read_episodes(path)
+  assert back[0]["obs"]["agentview_image"].dtype == np.uint8
+  np.testing.assert_array_equal(back[0]["obs"]["agentview_image"], images)

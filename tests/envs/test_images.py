@@ -69,3 +69,29 @@ def test_the_video_command_names_the_tasks_cameras():
   from soe_jax.envs import manipulation
 
   assert video.CAMERAS == manipulation.CAMERAS
+
+
+def test_images_drawn_from_an_episodes_states_are_the_ones_its_steps_observed():
+  from soe_jax.data.episodes import draw_images
+  from soe_jax.envs import manipulation
+
+  env = make_env("lift", obs_mode="image", backend="mujoco")
+  reset, step = jax.jit(jax.vmap(env.reset)), jax.jit(jax.vmap(env.step))
+  state = reset(jax.random.split(jax.random.PRNGKey(4), 2))
+  rng = np.random.default_rng(0)
+  seen, states = {k: [] for k in manipulation.IMAGE_KEYS}, []
+  for _ in range(3):
+    for k in seen:
+      seen[k].append(np.asarray(state.obs[k]))
+    states.append(env.physics.sim_state_float64(env.physics.sim_state(state.pipeline_state)))
+    action = np.asarray(state.obs["robot0_eef_pos"])
+    action = np.concatenate([action + rng.normal(0, 0.02, action.shape), np.tile([1, 0, 0, 0, 1, 0, -1], (2, 1))], -1)
+    state = step(state, action.astype(np.float32))
+  episodes = [dict(obs={}, states=np.stack(states)[:, i]) for i in range(2)]
+  draw_images(env, episodes, manipulation.IMAGE_KEYS)
+  for i, ep in enumerate(episodes):
+    for k in manipulation.IMAGE_KEYS:
+      np.testing.assert_array_equal(ep["obs"][k], np.stack(seen[k])[:, i])
+  with pytest.raises(ValueError, match="without simulator states"):
+    draw_images(env, [dict(obs={})], manipulation.IMAGE_KEYS)
+  env.renderer.close()

@@ -68,6 +68,22 @@ def test_sime_noise_is_raw_scale_converted_per_dimension():
   assert not np.allclose(cond_fn(cond[:2], 3, jax.random.PRNGKey(1)), cond_fn(cond[:2], 3, jax.random.PRNGKey(2)))
 
 
+def test_sime_on_an_image_policy_puts_one_scale_on_the_whole_conditioning():
+  from configs import lift
+
+  from soe_jax import checkpoint
+
+  config = lift.get_config("smoke,image,sime")
+  assert config.explore.strategy.kwargs.scale == 0.5  # SIME's scale for image tasks
+  policy = checkpoint.policy_from_config(config)
+  assert policy.image_keys == ("agentview_image", "robot0_eye_in_hand_image")
+  assert policy.cond_dim == 2 * (2 * 64 + policy.obs_dim)  # per frame: 64 features per camera, then the vector
+  norm = _agent(_policy()).normalizer  # (its scales play no part here)
+  fn = sime.cond_fn(policy, norm, scale=0.5)
+  noise = fn(jnp.zeros((20000, policy.cond_dim)), 9, jax.random.PRNGKey(0))  # the last DDIM-10 call: u = 1
+  np.testing.assert_allclose(noise.std(0), np.full(policy.cond_dim, 0.5), rtol=0.05)
+
+
 def test_soe_alpha_zero_is_the_mean_path_and_alpha_spreads():
   policy = _policy()
   agent = _agent(policy)

@@ -1,6 +1,7 @@
 """Per-dimension limits with a margin and span floors; identity for rotation-6d and gripper; no clip of
 observations, and the out-of-range fraction."""
 
+import jax.numpy as jnp
 import numpy as np
 
 from soe_jax.envs import manipulation
@@ -52,3 +53,15 @@ def test_out_of_range_fraction_on_a_hand_made_batch():
   assert abs(float(norm.out_of_range_fraction(batch)) - 4 / 24) < 1e-6
   acted = np.array([[True] * 4, [True, True, False, False]])
   assert abs(float(norm.out_of_range_fraction(batch, acted)) - 1 / 18) < 1e-6
+
+
+def test_image_observations_keep_their_low_dim_scaling_and_map_pixels_to_the_unit_interval():
+  obs = np.array([[0.0, 10.0], [1.0, 20.0]])
+  norm = normalizer.fit(obs, np.zeros((2, 4)), margin=0.0)
+  images = np.array([[[[0, 128, 255]]]], np.uint8)  # (1, 1, 1, 3)
+  out = norm.normalize_obs({"lowdim": jnp.asarray(obs[:1]), "images": {"agentview_image": jnp.asarray(images)}})
+  np.testing.assert_allclose(out["lowdim"], norm.normalize_obs(jnp.asarray(obs[:1])))
+  np.testing.assert_allclose(out["images"]["agentview_image"][0, 0, 0], [0.0, 128 / 255, 1.0], rtol=1e-6)
+  assert out["images"]["agentview_image"].dtype == jnp.float32
+  beyond = {"lowdim": jnp.asarray([[2.0, 15.0]]), "images": {"agentview_image": jnp.asarray(images)}}
+  assert float(norm.out_of_range_fraction(beyond)) == 0.5  # of the low-dim vector alone

@@ -3,6 +3,7 @@
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from soe_jax import buffer
 
@@ -50,3 +51,42 @@ def test_window_counts_and_edge_padding():
   assert act_w[short, -1, 0].max() == 8 and (np.diff(act_w[short, :, 0], axis=1) >= 0).all()
   # Observations are the first two frames of the window, aligned with its actions.
   np.testing.assert_array_equal(obs_w[:, :, 0], act_w[:, :2, 0])
+
+
+def _frame_images(lengths, size=4):
+  """Each episode's images {key: (T, size, size, 3) uint8}, pixel (0, 0) holding (frame, episode, key)."""
+  out = []
+  for i, t in enumerate(lengths):
+    ims = {}
+    for j, k in enumerate(("agentview_image", "robot0_eye_in_hand_image")):
+      im = np.zeros((t, size, size, 3), np.uint8)
+      im[:, 0, 0] = np.stack([np.arange(t), np.full(t, i), np.full(t, j)], -1)
+      ims[k] = im
+    out.append(ims)
+  return out
+
+
+def test_images_are_stored_unpadded_and_windows_read_the_frames_of_their_observations():
+  lengths = [20, 9, 14]
+  buf = buffer.create(4, 30, 2, 1)
+  obs, actions, length = _episodes(lengths)
+  buf = buffer.add(buf, obs, actions, length, jnp.ones(3, bool), 0)
+  buf = buffer.with_images(buf, _frame_images(lengths), image_frames=50)
+  assert buf.images["agentview_image"].shape == (50, 4, 4, 3) and buf.images["agentview_image"].dtype == jnp.uint8
+  np.testing.assert_array_equal(buf.first_frame[:3], [0, 20, 29])
+  s = jax.jit(lambda k: buffer.sample_windows(buf, k, 2000, 16, 2, 8))(jax.random.PRNGKey(1))
+  low, images = np.asarray(s["obs"]["lowdim"]), {k: np.asarray(v) for k, v in s["obs"]["images"].items()}
+  assert images["robot0_eye_in_hand_image"].shape == (2000, 2, 4, 4, 3)
+  for j, k in enumerate(("agentview_image", "robot0_eye_in_hand_image")):
+    pixel = images[k][:, :, 0, 0].astype(np.float32)  # (B, To, 3)
+    np.testing.assert_array_equal(pixel[..., 0], low[..., 0])  # the same frame as the low-dim obs,
+    np.testing.assert_array_equal(pixel[..., 1], low[..., 1])  # edge padding included, of the same episode
+    assert (pixel[..., 2] == j).all()
+
+
+def test_images_beyond_the_frame_store_are_refused():
+  buf = buffer.create(2, 30, 2, 1)
+  obs, actions, length = _episodes([20, 9])
+  buf = buffer.add(buf, obs, actions, length, jnp.ones(2, bool), 0)
+  with pytest.raises(ValueError, match="29 frames of images do not fit in data.image_frames=25; raise it"):
+    buffer.with_images(buf, _frame_images([20, 9]), image_frames=25)

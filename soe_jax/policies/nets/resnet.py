@@ -143,9 +143,8 @@ class ImageEncoder(nn.Module):
   def __call__(self, obs, train: bool = False):
     feats = []
     for i, cam in enumerate(self.cameras):
-      images = obs["images"][cam] * 2.0 - 1.0
       key = self.make_rng("crop") if train else None
-      images = crop(images, self.crop_size, train, key)
+      images = crop(obs["images"][cam], self.crop_size, train, key) * 2.0 - 1.0
       flat = images.reshape((-1,) + images.shape[-3:])  # frames as one batch, as Diffusion Policy does
       feats.append(
         CameraEncoder(widths=tuple(self.widths), name=f"camera_{i}")(flat).reshape(images.shape[:-3] + (-1,))

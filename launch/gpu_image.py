@@ -1,0 +1,69 @@
+"""The paper-scale image policy on a GPU host: the ResNet-18 encoder's fit step, the whole image
+policy's fit step (two cameras' ResNet-18s and Diffusion Policy's UNet, `configs/lift.py:image`) with
+and without the VIB bypass, and one action chunk's sampling at 1 and 256 observations.
+
+  python launch/gpu_image.py [--budget=280] [--cap=90] [--presets=image] [--out=DIR]
+
+Each case is one `python -m soe_jax.bench ...` process with its own time cap (compile included), run
+in order until the budget is spent; after each, DIR/image.jsonl and DIR/image.md are rewritten, so a
+run cut short keeps what it measured. `--presets=smoke,image` checks the script on a CPU in minutes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+from gpu_physics import run_case  # (launch/ is the script's directory)
+
+
+def cases(presets: str) -> list[tuple[str, list[str]]]:
+  config = f"--config=configs/lift.py:{presets}"
+  return [
+    ("encoder resnet18 batch 64", ["encoder", "--batch=64", "--steps=3", "--repeats=2"]),
+    ("fit lift image", ["fit", config, "--steps=10", "--repeats=2"]),
+    ("fit lift image, bypass and ema", ["fit", config, "--bypass=on", "--ema=on", "--steps=10", "--repeats=2"]),
+    ("sample lift image batch 1", ["sample", config, "--batch=1"]),
+    ("sample lift image batch 256", ["sample", config, "--batch=256"]),
+  ]
+
+
+def write(out: str, records: list[dict], left: list[str]) -> None:
+  with open(os.path.join(out, "image.jsonl"), "w") as f:
+    f.writelines(json.dumps(r) + "\n" for r in records)
+  md = ["| case | status | ms per step / chunk | first call s | wall s |", "|---|---|---|---|---|"]
+  for r in records:
+    res = r.get("result", {})
+    ms = res.get("ms_per_step", res.get("ms_per_chunk", round(res["step_s"] * 1000, 1) if "step_s" in res else "-"))
+    first = res.get("first_chunk_s", res.get("compile_s", "-"))
+    md.append(f"| {r['case']} | {r['status']} | {ms} | {first} | {r['wall_s']} |")
+  md += [f"| {c} | not run (budget) | | | |" for c in left]
+  with open(os.path.join(out, "image.md"), "w") as f:
+    f.write("\n".join(md) + "\n")
+
+
+def main() -> None:
+  parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+  parser.add_argument("--budget", type=float, default=280, help="seconds for all cases together")
+  parser.add_argument("--cap", type=float, default=90, help="seconds for one case, compile included")
+  parser.add_argument("--presets", default="image", help="the presets of configs/lift.py")
+  parser.add_argument("--out", default="gpu-image")
+  a = parser.parse_args()
+  os.makedirs(a.out, exist_ok=True)
+  start = time.perf_counter()
+  todo, records = cases(a.presets), []
+  while todo and (left := a.budget - (time.perf_counter() - start)) >= 15:
+    name, args = todo.pop(0)
+    print(f"[{time.perf_counter() - start:5.0f} s] {name}", flush=True)
+    record = dict(case=name, **run_case(args, min(a.cap, left)))
+    print(f"        {record['status']}: {json.dumps(record.get('result', {}))[:300]}", flush=True)
+    records.append(record)
+    write(a.out, records, [c for c, _ in todo])
+  write(a.out, records, [c for c, _ in todo])
+  print(f"done in {time.perf_counter() - start:.0f} s; {len(todo)} cases not run", flush=True)
+
+
+if __name__ == "__main__":
+  main()

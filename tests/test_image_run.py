@@ -1,0 +1,75 @@
+"""An image policy through the whole experiment (`configs/lift.py:smoke,image`): the cameras' images in
+the observation history, the buffer and the fit, kept episodes drawn from their states, the
+checkpoint, and robomimic's image keys in the exported data; and the config checks that go with it."""
+
+import json
+import os
+
+import h5py
+import numpy as np
+import pytest
+from configs import lift as lift_config
+
+from soe_jax import validation
+from soe_jax.envs import manipulation
+from tests.test_render import needs_egl
+
+
+def test_image_configs_are_checked_before_anything_runs():
+  config = lift_config.get_config("smoke,image")
+  assert validation.problems(config) == []
+  config.env.obs_mode = "low_dim"
+  assert any("set env.obs_mode='image'" in p for p in validation.problems(config))
+  config.env.obs_mode = "rgb"
+  assert validation.problems(config) == ["unknown env.obs_mode 'rgb'; known observation modes: low_dim, image"]
+  config = lift_config.get_config("smoke,image")
+  config.policy.encoder.kwargs.cameras = ("sideview_image",)
+  config.policy.encoder.kwargs.crop_size = 90
+  config.data.image_frames = 0
+  found = "\n".join(validation.problems(config))
+  assert "unknown camera images 'sideview_image'; the tasks draw agentview_image, robot0_eye_in_hand_image" in found
+  assert "crop_size (90) must be in 1..env.image_size (84)" in found
+  assert "data.image_frames must be at least 1" in found
+
+
+@needs_egl
+@pytest.mark.slow
+def test_an_image_smoke_run_explores_keeps_refits_and_exports_images(tmp_path):
+  import jax
+
+  from soe_jax import checkpoint, loop
+  from soe_jax.data import export, hdf5
+  from soe_jax.envs import registry as env_registry
+  from soe_jax.policies import agent as agent_lib
+  from soe_jax.rundir import RunDir
+
+  config = lift_config.get_config("smoke,image")
+  config.explore.strategy = lift_config.common.strategy_config("expert")  # keeps every start state
+  config.env.episode_length = config.data.max_length = 150
+  config.rounds.num_rounds = 1
+  workdir = str(tmp_path / "run")
+  summary = loop.run(config, workdir, progress=False)
+  run = RunDir.open(workdir)
+  kept, _ = hdf5.read_episodes(run.data_path(1))
+  assert len(kept) == summary["kept"] == config.explore.num_start_states  # the demonstrator succeeds from each
+  fits = [json.loads(line) for line in open(os.path.join(workdir, "metrics.jsonl")) if '"phase": "fit"' in line]
+  assert [f["num_episodes"] for f in fits] == [4, 4 + len(kept)]  # the re-fit trained on them, their images drawn
+  loaded = checkpoint.load(run.ckpt_dir(1))
+  assert loaded.policy.image_keys == manipulation.IMAGE_KEYS
+  env = env_registry.env_from_config(config.env)
+  state = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(7), 1))
+  hist = agent_lib.initial_history(manipulation.policy_input(state.obs, manipulation.IMAGE_KEYS), 2)
+  actions = np.asarray(loaded.agent.act(hist, jax.random.PRNGKey(1)))  # the checkpoint acts on images
+  assert actions.shape == (1, config.policy.n_action_steps, 10) and np.isfinite(actions).all()
+  out = str(tmp_path / "data.hdf5")
+  export.export(workdir, "robomimic", out)
+  with h5py.File(out) as f:
+    demo = f["data/demo_5"]  # a kept episode (after the 4 demonstrations)
+    for key in manipulation.IMAGE_KEYS:
+      images = demo["obs"][key][()]
+      assert images.dtype == np.uint8 and images.shape == (demo.attrs["num_samples"], 84, 84, 3)
+    states = demo["states"][()]
+  drawn = env.draw(states[:, 1 : 1 + env.mj_model.nq])
+  np.testing.assert_array_equal(images, drawn[manipulation.IMAGE_KEYS[-1]])
+  env.renderer.close()
+
