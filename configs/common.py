@@ -32,7 +32,8 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
   beside the low-dim vector (`env.obs_mode`), encoded by robomimic's ResNet-18 per camera with random
   76 x 76 crops in training (`policy.encoder`), the images stored unpadded (`data.image_frames`
   frames), SIME's image-task noise scale 0.5; with `cpu` the trunk's widths are 16/32/64/128 (its fit
-  step ~6x faster here than ResNet-18's 64/128/256/512, which accelerators keep).
+  step ~6x faster here than ResNet-18's 64/128/256/512, which accelerators keep) and round 0 fits for
+  4k steps, about an hour here.
 Single fields are overridden on the command line with `--config.fit.lr=3e-4`.
 """
 
@@ -252,6 +253,10 @@ def apply_presets(
     )
     # Two 84 x 84 cameras: 42 kB a frame (4.2 GB for 100k frames; 1.7 GB for the CPU's 40k).
     c.data.image_frames = 2_000 if presets.get("smoke") else 40_000 if presets.get("cpu") else 100_000
+    if presets.get("cpu") and not presets.get("smoke"):
+      # A round-0 fit within an hour here: the narrow trunk's step is ~0.6 s (BENCHMARKS.md), the head's
+      # and the bypass's come on top.
+      c.fit.num_steps = 4_000
     if c.explore.strategy.name == "sime":
       c.explore.strategy.kwargs.scale = 0.5  # SIME's scale for image tasks
   if "head" in presets:

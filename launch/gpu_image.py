@@ -14,9 +14,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import time
 
-from gpu_physics import run_case  # (launch/ is the script's directory)
+from gpu_physics import run_all  # (launch/ is the script's directory)
 
 
 def cases(presets: str) -> list[tuple[str, list[str]]]:
@@ -52,17 +51,7 @@ def main() -> None:
   parser.add_argument("--out", default="gpu-image")
   a = parser.parse_args()
   os.makedirs(a.out, exist_ok=True)
-  start = time.perf_counter()
-  todo, records = cases(a.presets), []
-  while todo and (left := a.budget - (time.perf_counter() - start)) >= 15:
-    name, args = todo.pop(0)
-    print(f"[{time.perf_counter() - start:5.0f} s] {name}", flush=True)
-    record = dict(case=name, **run_case(args, min(a.cap, left)))
-    print(f"        {record['status']}: {json.dumps(record.get('result', {}))[:300]}", flush=True)
-    records.append(record)
-    write(a.out, records, [c for c, _ in todo])
-  write(a.out, records, [c for c, _ in todo])
-  print(f"done in {time.perf_counter() - start:.0f} s; {len(todo)} cases not run", flush=True)
+  run_all(cases(a.presets), a.budget, a.cap, lambda records, left: write(a.out, records, left))
 
 
 if __name__ == "__main__":

@@ -101,6 +101,22 @@ def write(out: str, records: list[dict], left: list[str]) -> None:
   plt.close(fig)
 
 
+def run_all(todo: list[tuple[str, list[str]]], budget: float, cap: float, write) -> None:
+  """Run the cases in order until `budget` seconds are spent, each capped at `cap`; `write(records,
+  names left)` after every case, so a run cut short keeps what it measured."""
+  start = time.perf_counter()
+  records = []
+  while todo and (left := budget - (time.perf_counter() - start)) >= 15:
+    name, args = todo.pop(0)
+    print(f"[{time.perf_counter() - start:5.0f} s] {name}", flush=True)
+    record = dict(case=name, **run_case(args, min(cap, left)))
+    print(f"        {record['status']}: {json.dumps(record.get('result', {}))[:300]}", flush=True)
+    records.append(record)
+    write(records, [c for c, _ in todo])
+  write(records, [c for c, _ in todo])
+  print(f"done in {time.perf_counter() - start:.0f} s; {len(todo)} cases not run", flush=True)
+
+
 def main() -> None:
   parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
   parser.add_argument("--budget", type=float, default=290, help="seconds for all cases together")
@@ -108,20 +124,7 @@ def main() -> None:
   parser.add_argument("--out", default="gpu-physics")
   a = parser.parse_args()
   os.makedirs(a.out, exist_ok=True)
-  start = time.perf_counter()
-  todo, records = cases(), []
-  while todo:
-    left = a.budget - (time.perf_counter() - start)
-    if left < 15:
-      break
-    name, args = todo.pop(0)
-    print(f"[{time.perf_counter() - start:5.0f} s] {name}", flush=True)
-    record = dict(case=name, **run_case(args, min(a.cap, left)))
-    print(f"        {record['status']}: {json.dumps(record.get('result', {}))[:300]}", flush=True)
-    records.append(record)
-    write(a.out, records, [c for c, _ in todo])
-  write(a.out, records, [c for c, _ in todo])
-  print(f"done in {time.perf_counter() - start:.0f} s; {len(todo)} cases not run", flush=True)
+  run_all(cases(), a.budget, a.cap, lambda records, left: write(a.out, records, left))
 
 
 if __name__ == "__main__":

@@ -108,7 +108,9 @@ def _images(config) -> list[str]:
   cameras = list(enc.kwargs.get("cameras", manipulation.IMAGE_KEYS))
   unknown = [c for c in cameras if c not in manipulation.IMAGE_KEYS]
   if unknown:
-    out.append(f"unknown camera images {', '.join(map(repr, unknown))}; the tasks draw {', '.join(manipulation.IMAGE_KEYS)}")
+    out.append(
+      f"unknown camera images {', '.join(map(repr, unknown))}; the tasks draw {', '.join(manipulation.IMAGE_KEYS)}"
+    )
   crop = enc.kwargs.get("crop_size", 76)
   if not 0 < crop <= config.env.image_size:
     out.append(f"policy.encoder.kwargs.crop_size ({crop}) must be in 1..env.image_size ({config.env.image_size})")

@@ -8,8 +8,8 @@ import os
 import h5py
 import numpy as np
 import pytest
-from configs import lift as lift_config
 
+from configs import lift as lift_config
 from soe_jax import validation
 from soe_jax.envs import manipulation
 from tests.test_render import needs_egl
@@ -72,4 +72,3 @@ def test_an_image_smoke_run_explores_keeps_refits_and_exports_images(tmp_path):
   drawn = env.draw(states[:, 1 : 1 + env.mj_model.nq])
   np.testing.assert_array_equal(images, drawn[manipulation.IMAGE_KEYS[-1]])
   env.renderer.close()
-

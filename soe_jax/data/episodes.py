@@ -75,7 +75,9 @@ def policy_frames(episodes: list[dict]) -> tuple[np.ndarray, np.ndarray]:
   return np.concatenate([e["policy_obs"] for e in flat]), np.concatenate([e["actions"] for e in flat])
 
 
-def build_buffer(config: ml_collections.ConfigDict, policy, sets: list[EpisodeSet], env=None) -> buffer_lib.EpisodeBuffer:
+def build_buffer(
+  config: ml_collections.ConfigDict, policy, sets: list[EpisodeSet], env=None
+) -> buffer_lib.EpisodeBuffer:
   """A buffer of `config.data.capacity` episodes of at most `config.data.max_length` steps holding `sets`;
   for an image policy with its episodes' images too (`config.data.image_frames` frames of them, drawn
   by `env`'s renderer where an episode lacks them, and kept in the episode: `draw_images`)."""

@@ -109,7 +109,9 @@ def policy_input(obs: dict, image_keys: tuple[str, ...] = (), xp=jnp):
     return vector
   missing = [k for k in image_keys if k not in obs]
   if missing:
-    raise ValueError(f"the policy reads images {', '.join(missing)}, which these observations lack (obs_mode='image' draws them)")
+    raise ValueError(
+      f"the policy reads images {', '.join(missing)}, which these observations lack (obs_mode='image' draws them)"
+    )
   return {"lowdim": vector, "images": {k: obs[k] for k in image_keys}}
 
 

@@ -70,7 +70,6 @@ def test_sime_noise_is_raw_scale_converted_per_dimension():
 
 def test_sime_on_an_image_policy_puts_one_scale_on_the_whole_conditioning():
   from configs import lift
-
   from soe_jax import checkpoint
 
   config = lift.get_config("smoke,image,sime")
