@@ -194,7 +194,7 @@ def test_method_presets_choose_the_strategy():
   with pytest.raises(ValueError, match="choose one method preset"):
     lift_config.get_config("soe,dp")
   with pytest.raises(
-    ValueError, match="known presets: smoke, cpu, head, expert_data, select, length_cap, alpha, hold, dp, sime,"
+    ValueError, match="known presets: smoke, cpu, head, image, expert_data, select, length_cap, alpha, hold, dp, sime,"
   ):
     lift_config.get_config("fast")
   with pytest.raises(ValueError, match="expert_data goes with an exploring method"):

@@ -32,7 +32,7 @@ def run_with_data(smoke_run, tmp_path_factory):
 
 
 def _buffer(config, sets):
-  dims = types.SimpleNamespace(obs_dim=19, action_dim=10)  # lift's policy observation and action sizes
+  dims = types.SimpleNamespace(obs_dim=19, action_dim=10, image_keys=())  # lift's low-dim policy: its sizes
   return build_buffer(config, dims, sets)
 
 
