@@ -32,6 +32,7 @@ CONTROL = "control"
 # What a method's run and its control may differ in: the arm itself (how it explores, what it keeps).
 _ARM = ("method", "explore.", "rounds.new_data", "rounds.select", "rounds.length_cap")
 _NOT_SETTINGS = ("seed", "rounds.round0_dir")
+_LOGGING = "log."  # how a run is logged and watched (wandb, videos): never part of the experiment
 _PER_SEED = ("pass_at_k", "jerk", "rollouts", "kept", "kept_length", "sr_before", "sr_after", "improvement_rel", "seed")
 
 
@@ -53,12 +54,12 @@ def _mean_std(xs) -> str:
 
 
 def _settings(workdir: str) -> dict:
-  """The run's saved config, flattened, without what seeds and places it."""
+  """The run's saved config, flattened, without what seeds, places and logs it."""
   from soe_jax import rundir  # (imports MuJoCo: after the command's quiet start)
 
   with open(os.path.join(workdir, "config.json")) as f:
     saved = rundir.with_added(json.load(f))  # older runs lack added fields
-  return {k: v for k, v in runlog.flatten(saved).items() if k not in _NOT_SETTINGS}
+  return {k: v for k, v in runlog.flatten(saved).items() if k not in _NOT_SETTINGS and not k.startswith(_LOGGING)}
 
 
 def _variants(settings: list[dict]) -> list[str]:

@@ -144,6 +144,18 @@ def test_aggregate_pairs_each_method_with_its_round0_and_the_control_of_its_seed
   assert {r["method"]: r for r in aggregate.rows(aggregate.find_runs(str(tmp_path)))}["dp"]["vs_control"] == "-"
 
 
+def test_seeds_logged_differently_are_one_arm(tmp_path):
+  """How a run is logged (videos, wandb) is not part of the experiment: it does not split an arm."""
+  for seed in (0, 1):
+    _fake_run(tmp_path / f"s{seed}" / "soe", "soe", seed, [1, 0, 0, 1], [1, 1, 1, 0])
+  path = tmp_path / "s1" / "soe" / "config.json"
+  config = json.load(open(path))
+  config["log"].update(videos=4, wandb=True)
+  json.dump(config, open(path, "w"))
+  rows = aggregate.rows(aggregate.find_runs(str(tmp_path)))
+  assert [(r["method"], r["seeds"]) for r in rows] == [("soe", 2)]
+
+
 def test_a_campaign_runs_its_methods_and_exports_each_run_with_its_command(tmp_path):
   results = tmp_path / "results"
   md = campaign.campaign("configs/lift.py:smoke", {"rounds.num_rounds": 1}, 3, ["control"], str(tmp_path / "runs"),
