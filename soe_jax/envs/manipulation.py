@@ -100,11 +100,11 @@ def policy_obs(obs: dict, xp=jnp) -> jax.Array:
   return xp.concatenate([xp.asarray(obs[k], xp.float32) for k in POLICY_OBS_KEYS], axis=-1)
 
 
-def policy_input(obs: dict, image_keys: tuple[str, ...] = (), xp=jnp):
+def policy_input(obs: dict, image_keys: tuple[str, ...] = ()):
   """What a policy reads of the observations: the low-dim vector (`policy_obs`), or for a policy of
   camera images (`image_keys`, e.g. `IMAGE_KEYS`) {"lowdim": that vector, "images": {key: (..., H, W,
   3) uint8}}, the form an image policy's observation histories, buffer windows and normaliser take."""
-  vector = policy_obs(obs, xp)
+  vector = policy_obs(obs)
   if not image_keys:
     return vector
   missing = [k for k in image_keys if k not in obs]
@@ -161,7 +161,7 @@ class ManipulationEnv(Env):
     self.obs_mode = self.config.obs_mode
     self.image_size = int(self.config.image_size)
     self.cameras = CAMERAS if self.obs_mode == "image" else ()
-    self.image_keys = tuple(f"{c}_image" for c in self.cameras)  # (IMAGE_KEYS in image mode)
+    self.image_keys = IMAGE_KEYS if self.cameras else ()
     # Started on the first image; `render_seconds` is the time spent drawing, for benchmarks.
     # No multisampling: the images are the policy's input, and llvmpipe draws them 2x faster without.
     self.renderer = pool.Renderer(self.mj_model, self.cameras, self.image_size, samples=0) if self.cameras else None
