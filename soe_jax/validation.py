@@ -13,6 +13,7 @@ from soe_jax.data import hdf5
 from soe_jax.envs import controller, manipulation, physics
 from soe_jax.envs import registry as env_registry
 from soe_jax.errors import UserError
+from soe_jax.experts import registry as expert_registry
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.explore import select
 from soe_jax.policies import registry as policy_registry
@@ -92,6 +93,11 @@ def problems(config: ml_collections.ConfigDict) -> list[str]:
     out.append("log.wandb needs wandb, which is not installed: pip install -e '.[wandb]'")
   if config.data.hdf5_path and not out:
     out += _demonstration_file(config)
+  elif config.env.task in env_registry.env_names() and config.env.task not in expert_registry.expert_names():
+    out.append(
+      f"task {config.env.task!r} has no scripted demonstrator yet (those of {', '.join(expert_registry.expert_names())}"
+      "): give its demonstrations in data.hdf5_path"
+    )
   return out
 
 
@@ -129,8 +135,8 @@ def _demonstration_file(config) -> list[str]:
   if len(episodes) < config.data.num_demos:
     return [f"{path} holds {len(episodes)} episodes; data.num_demos asks for {config.data.num_demos}"]
   factory = env_registry.TASKS.factory(config.env.task)
-  sizes = dict(manipulation.ROBOT_OBS_SIZES, object=factory.object_dim)
-  action = controller.action_size(config.env.action_mode)
+  sizes = manipulation.policy_obs_sizes(factory.object_dim, len(factory.bases))
+  action = env_registry.action_size(config.env.task, config.env.action_mode)
   for i, ep in enumerate(episodes[: config.data.num_demos]):
     for key, size in sizes.items():
       got = np.shape(ep["obs"].get(key, ()))

@@ -53,7 +53,9 @@ def draw_images(env, episodes: list[dict], keys: tuple[str, ...]) -> list[dict]:
   if any("states" not in ep for ep in todo):
     raise ValueError("an episode without simulator states has no images to draw; image policies need states")
   nq = env.mj_model.nq
-  qpos = np.concatenate([np.asarray(ep["states"])[:, 1 : 1 + nq] for ep in todo])
+  # In float32, as a step draws its observation from the state's float32 qpos: the same pixels (the
+  # float64 pose can turn a pixel at an edge).
+  qpos = np.concatenate([np.asarray(ep["states"])[:, 1 : 1 + nq] for ep in todo]).astype(np.float32)
   drawn = env.draw(qpos)
   start = 0
   for ep in todo:

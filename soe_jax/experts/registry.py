@@ -7,6 +7,7 @@ from soe_jax.registry import Registry
 
 EXPERTS: Registry[script.ScriptedExpert] = Registry("scripted demonstrator")
 register_expert = EXPERTS.register
+expert_names = EXPERTS.names
 
 
 def make_expert(name: str) -> script.ScriptedExpert:
