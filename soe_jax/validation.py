@@ -13,7 +13,6 @@ from soe_jax.data import hdf5
 from soe_jax.envs import controller, manipulation, physics
 from soe_jax.envs import registry as env_registry
 from soe_jax.errors import UserError
-from soe_jax.experts import registry as expert_registry
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.explore import select
 from soe_jax.policies import registry as policy_registry
@@ -93,11 +92,6 @@ def problems(config: ml_collections.ConfigDict) -> list[str]:
     out.append("log.wandb needs wandb, which is not installed: pip install -e '.[wandb]'")
   if config.data.hdf5_path and not out:
     out += _demonstration_file(config)
-  elif config.env.task in env_registry.env_names() and config.env.task not in expert_registry.expert_names():
-    out.append(
-      f"task {config.env.task!r} has no scripted demonstrator yet (those of {', '.join(expert_registry.expert_names())}"
-      "): give its demonstrations in data.hdf5_path"
-    )
   return out
 
 

@@ -231,7 +231,6 @@ def test_a_rejected_config_writes_nothing(tmp_path):
   broken.write_text("not hdf5")
   for field, value, message in [
     ("env.task", "nope", "unknown task 'nope'; known tasks: can, lift, square, transport"),
-    ("env.task", "transport", "task 'transport' has no scripted demonstrator yet"),
     ("policy.head.name", "transformer", "known heads: diffusion_unet, flow_unet, mlp"),
     ("explore.strategy.name", "noise", "known strategies: dp, expert, sime"),
     ("explore.strategy.name", "sime", "strategy 'sime' has no setting 'alpha'"),  # soe's settings
