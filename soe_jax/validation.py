@@ -105,11 +105,12 @@ def _images(config) -> list[str]:
   out = []
   if mode != "image":
     out.append("policy.encoder 'image' reads camera images: set env.obs_mode='image' (the `image` preset does)")
-  cameras = list(enc.kwargs.get("cameras", manipulation.IMAGE_KEYS))
-  unknown = [c for c in cameras if c not in manipulation.IMAGE_KEYS]
-  if unknown:
+  drawn = env_registry.image_keys(config.env.task) if config.env.task in env_registry.env_names() else ()
+  cameras = list(enc.kwargs.get("cameras", drawn))
+  unknown = [c for c in cameras if c not in drawn]
+  if unknown and drawn:
     out.append(
-      f"unknown camera images {', '.join(map(repr, unknown))}; the tasks draw {', '.join(manipulation.IMAGE_KEYS)}"
+      f"unknown camera images {', '.join(map(repr, unknown))}; the {config.env.task} task draws {', '.join(drawn)}"
     )
   crop = enc.kwargs.get("crop_size", 76)
   if not 0 < crop <= config.env.image_size:

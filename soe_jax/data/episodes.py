@@ -37,9 +37,10 @@ def from_batch(obs: dict, actions, states, length, success, mask=None, next_obs:
   return out
 
 
-def from_rollout(out: dict, mask) -> list[dict]:
-  """The episodes of a rollout's output (`rollout.rollout`) where `mask` (N,) is set."""
-  obs, next_obs = (manipulation.split_policy_obs(out[k]) for k in ("obs", "next_obs"))
+def from_rollout(out: dict, mask, num_robots: int = 1) -> list[dict]:
+  """The episodes of a rollout's output (`rollout.rollout`) where `mask` (N,) is set, for a task of
+  `num_robots` robots."""
+  obs, next_obs = (manipulation.split_policy_obs(out[k], num_robots) for k in ("obs", "next_obs"))
   return from_batch(obs, out["actions"], out["states"], out["length"], out["success"], mask, next_obs)
 
 

@@ -121,6 +121,11 @@ def num_robots_in(obs: dict) -> int:
   return k
 
 
+def eef_positions(obs: dict) -> jax.Array:
+  """(..., R, 3): every robot's grip-site position, robot0 first."""
+  return jnp.stack([obs[f"robot{k}_eef_pos"] for k in range(num_robots_in(obs))], -2)
+
+
 def policy_obs(obs: dict, xp=jnp) -> jax.Array:
   """The policy's observation vector: every robot's low-dim keys, then `object`, concatenated, (..., 19
   or 23; 59 for two robots); `xp=np` on the host."""

@@ -23,6 +23,11 @@ def action_size(name: str, action_mode: str) -> int:
   return controller.action_size(action_mode) * len(TASKS.factory(name).bases)
 
 
+def image_keys(name: str) -> tuple[str, ...]:
+  """The camera images task `name` draws with obs_mode="image" (robomimic's keys)."""
+  return tuple(f"{c}_image" for c in TASKS.factory(name).image_cameras)
+
+
 def make_env(name: str, config: ml_collections.ConfigDict | None = None, **overrides) -> manipulation.ManipulationEnv:
   """Build task `name`; `overrides` replace fields of its default config (e.g. backend="mjx")."""
   factory = TASKS.factory(name)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from soe_jax.envs import can, env_names, lift, make_env, panda, rotations, square, transport
-from soe_jax.envs.manipulation import num_robots_in, policy_obs
+from soe_jax.envs.manipulation import num_robots_in, policy_obs, split_policy_obs
 
 TASKS = env_names()
 OBS_SIZES = {"lift": 19, "can": 23, "square": 23, "transport": 59}
@@ -205,3 +205,15 @@ def test_transport_success_needs_both_objects_on_their_plates(jitted_env):
     state = step(state, _hold_action(state.obs))
   assert float(state.metrics["success"]) == 1.0
   np.testing.assert_array_equal(state.obs["object"][-2:], [1, 1])  # payload_in_target_bin, trash_in_trash_bin
+
+
+def test_two_robot_policy_observations_split_back_into_robomimics_keys(jitted_env):
+  env, reset, _ = jitted_env("transport")
+  obs = reset(jax.random.PRNGKey(0)).obs
+  vector = np.asarray(policy_obs(obs))
+  keys = ("robot0_eef_pos", "robot0_eef_quat", "robot0_gripper_qpos", "robot1_eef_pos", "robot1_eef_quat")
+  assert env.policy_obs_keys == keys + ("robot1_gripper_qpos", "object")
+  parts = split_policy_obs(vector, env.num_robots)
+  assert list(parts) == list(env.policy_obs_keys)
+  for k, v in parts.items():
+    np.testing.assert_array_equal(v, obs[k])
