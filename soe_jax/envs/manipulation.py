@@ -334,18 +334,20 @@ class ManipulationEnv(Env):
         f"{self.name}: expected an action of shape ({self.action_size},) for action mode "
         f"{self.action_mode!r}, got {tuple(action.shape)}"
       )
-    ps = state.pipeline_state
-    blocks = jnp.split(action, self.num_robots)
-    ctrl = jnp.concatenate(
-      [
-        controller.joint_controls(kin, self.action_mode, a, ps.qpos[9 * k : 9 * k + 7])
-        for k, (kin, a) in enumerate(zip(self.kins, blocks))
-      ]
-    )
-    ps = self.physics.step(ps, ctrl)
+    ps = self.physics.step(state.pipeline_state, self.controls(action, state.pipeline_state.qpos))
     obs, success = self._observe(ps)
     reward = self._get_reward(success)
     return state.replace(pipeline_state=ps, obs=obs, reward=reward, done=success, metrics={"success": success})
+
+  def controls(self, action: jax.Array, qpos: jax.Array) -> jax.Array:
+    """The servos' targets (9 per robot) for `action` (its k-th block robot k's) at joint positions `qpos`."""
+    blocks = jnp.split(action, self.num_robots)
+    return jnp.concatenate(
+      [
+        controller.joint_controls(kin, self.action_mode, a, qpos[9 * k : 9 * k + 7])
+        for k, (kin, a) in enumerate(zip(self.kins, blocks))
+      ]
+    )
 
   def _get_reward(self, success: jax.Array) -> jax.Array:
     """Sparse, as robomimic evaluates: 1 on success."""
