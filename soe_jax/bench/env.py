@@ -15,20 +15,14 @@ import time
 import jax
 import jax.numpy as jnp
 
-from soe_jax.envs import make_env, manipulation, rotations
+from soe_jax.envs import make_env, manipulation
 
 
 def _motion(obs0, t):
   """Action (10 per robot) at control step t: each arm a circle of 4 cm radius in the horizontal plane."""
   angle = 2 * jnp.pi * t / 80.0
   circle = 0.04 * jnp.array([jnp.cos(angle) - 1.0, jnp.sin(angle), 0.0])
-  grip = jnp.where(jnp.mod(t, 40) < 20, -1.0, 1.0)[None]
-  return jnp.concatenate(
-    [
-      jnp.concatenate([obs0[f"{r}_eef_pos"] + circle, rotations.mat_to_rot6d(obs0[f"{r}_eef_rot"].reshape(3, 3)), grip])
-      for r in (f"robot{k}" for k in range(manipulation.num_robots_in(obs0)))
-    ]
-  )
+  return manipulation.pose_action(obs0, circle, jnp.where(jnp.mod(t, 40) < 20, -1.0, 1.0))
 
 
 def run(

@@ -126,6 +126,20 @@ def eef_positions(obs: dict) -> jax.Array:
   return jnp.stack([obs[f"robot{k}_eef_pos"] for k in range(num_robots_in(obs))], -2)
 
 
+def pose_action(obs: dict, offset=0.0, grip=-1.0) -> jax.Array:
+  """An absolute action (10 per robot): every arm's grip site at its pose in `obs`, moved by `offset`
+  (3,), its gripper commanded to `grip`."""
+  grip = jnp.reshape(jnp.asarray(grip, jnp.float32), (1,))
+  return jnp.concatenate(
+    [
+      jnp.concatenate(
+        [obs[f"robot{k}_eef_pos"] + offset, rotations.mat_to_rot6d(obs[f"robot{k}_eef_rot"].reshape(3, 3)), grip]
+      )
+      for k in range(num_robots_in(obs))
+    ]
+  )
+
+
 def policy_obs(obs: dict, xp=jnp) -> jax.Array:
   """The policy's observation vector: every robot's low-dim keys, then `object`, concatenated, (..., 19
   or 23; 59 for two robots); `xp=np` on the host."""

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from soe_jax.envs import can, env_names, lift, make_env, panda, rotations, square, transport
-from soe_jax.envs.manipulation import num_robots_in, policy_obs, split_policy_obs
+from soe_jax.envs.manipulation import policy_obs, pose_action, split_policy_obs
 
 TASKS = env_names()
 OBS_SIZES = {"lift": 19, "can": 23, "square": 23, "transport": 59}
@@ -15,14 +15,7 @@ ACTION_SIZES = {"lift": 10, "can": 10, "square": 10, "transport": 20}
 
 def _hold_action(obs):
   """Every arm holds its pose, gripper open."""
-  return jnp.concatenate(
-    [
-      jnp.concatenate(
-        [obs[f"{r}_eef_pos"], rotations.mat_to_rot6d(obs[f"{r}_eef_rot"].reshape(3, 3)), jnp.array([-1.0])]
-      )
-      for r in (f"robot{k}" for k in range(num_robots_in(obs)))
-    ]
-  )
+  return pose_action(obs)
 
 
 @pytest.mark.parametrize("task", TASKS)
