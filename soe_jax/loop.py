@@ -326,7 +326,9 @@ def round0(exp: Experiment) -> tuple:
     )
   demos = run.demonstrations()
   margin = float(exp.config.policy.normalizer_margin)
-  norm = normalizer_lib.fit(*policy_frames(demos), margin=margin, obs_min_span=exp.env.obs_min_span)
+  norm = normalizer_lib.fit(
+    *policy_frames(demos), margin=margin, obs_min_span=exp.env.obs_min_span, num_robots=exp.env.num_robots
+  )
   state = exp.fit_phase(0, [EpisodeSet(demos, 0)], norm)
   exp.evaluate_phase(0, state)
   exp.videos(0)
