@@ -126,6 +126,11 @@ def eef_positions(obs: dict) -> jax.Array:
   return jnp.stack([obs[f"robot{k}_eef_pos"] for k in range(num_robots_in(obs))], -2)
 
 
+def action_positions(actions: jax.Array, num_robots: int = 1) -> jax.Array:
+  """(..., A) actions -> (..., R, 3): each robot's commanded position (the first 3 numbers of its block)."""
+  return actions.reshape(actions.shape[:-1] + (num_robots, -1))[..., :3]
+
+
 def pose_action(obs: dict, offset=0.0, grip=-1.0) -> jax.Array:
   """An absolute action (10 per robot): every arm's grip site at its pose in `obs`, moved by `offset`
   (3,), its gripper commanded to `grip`."""
