@@ -52,7 +52,10 @@ def _demos(task, jitted):
   return env, collect.run_demos(env, make_expert(task), keys, progress=False)
 
 
-@pytest.mark.parametrize("task", expert_names())
+# transport's 700-step demonstrations take ~20 s: slow.
+@pytest.mark.parametrize(
+  "task", [pytest.param(t, marks=pytest.mark.slow) if t == "transport" else t for t in expert_names()]
+)
 def test_quaternions_are_continuous_along_scripted_episodes(task, jitted_env):
   env, batch = _demos(task, jitted_env)
   obs = np.asarray(policy_obs(batch["obs"], xp=np))
