@@ -43,7 +43,7 @@ import functools
 
 import ml_collections
 
-from soe_jax.envs import manipulation
+from soe_jax.envs import registry as env_registry
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.policies.nets.resnet import RESNET18_WIDTHS
 
@@ -248,10 +248,12 @@ def apply_presets(
   if presets.get("image"):
     widths = SMOKE_IMAGE_WIDTHS if presets.get("smoke") else CPU_IMAGE_WIDTHS if presets.get("cpu") else RESNET18_WIDTHS
     c.env.obs_mode = "image"
+    cameras = env_registry.image_keys(c.env.task)
     c.policy.encoder = ml_collections.ConfigDict(
-      dict(name="image", kwargs=dict(cameras=manipulation.IMAGE_KEYS, crop_size=76, widths=widths))
+      dict(name="image", kwargs=dict(cameras=cameras, crop_size=76, widths=widths))
     )
-    # Two 84 x 84 cameras: 42 kB a frame (4.2 GB for 100k frames; 1.7 GB for the CPU's 40k).
+    # Two 84 x 84 cameras: 42 kB a frame (4.2 GB for 100k frames; 1.7 GB for the CPU's 40k); Transport's
+    # four, twice that.
     c.data.image_frames = 2_000 if presets.get("smoke") else 40_000 if presets.get("cpu") else 100_000
     if presets.get("cpu") and not presets.get("smoke"):
       # A round-0 fit within an hour here: the narrow trunk's step is ~0.6 s (BENCHMARKS.md), the head's

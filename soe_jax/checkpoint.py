@@ -18,7 +18,7 @@ import ml_collections
 import orbax.checkpoint as ocp
 
 from soe_jax import train_state
-from soe_jax.envs import controller, registry
+from soe_jax.envs import registry
 from soe_jax.policies import normalizer as normalizer_lib
 from soe_jax.policies.agent import Agent
 from soe_jax.policies.policy import Policy, make_policy
@@ -36,7 +36,7 @@ def policy_from_config(config: ml_collections.ConfigDict) -> Policy:
   return make_policy(
     config.policy,
     registry.observation_size(config.env.task),
-    controller.action_size(config.env.action_mode),
+    registry.action_size(config.env.task, config.env.action_mode),
     int(config.env.get("image_size", 84)),
   )
 

@@ -117,7 +117,7 @@ class Experiment:
   def shown(self, out: dict) -> list[dict]:
     """A rollout's first `log.videos` episodes, to be watched."""
     n = len(out["success"])
-    return from_rollout(out, np.arange(n) < int(self.config.log.videos))
+    return from_rollout(out, np.arange(n) < int(self.config.log.videos), self.env.num_robots)
 
   def explore(self, state, r: int, buf) -> tuple[dict, list[dict], list[dict]]:
     """Round r's exploration with the configured strategy, prepared on the data in `buf` -> (record,
@@ -149,7 +149,7 @@ class Experiment:
       rec["steered_fraction"] = float(out["aux"]["steered"].mean())
     if self.config.rounds.new_data == "expert":
       return (*self.expert_episodes(reset_keys[keep], rec), self.shown(out))
-    return rec, from_rollout(out, keep), self.shown(out)
+    return rec, from_rollout(out, keep, self.env.num_robots), self.shown(out)
 
   def expert_episodes(self, reset_keys, rec: dict) -> tuple[dict, list[dict]]:
     """The oracle's data: the scripted demonstrator's episodes from `reset_keys` (the start states an
@@ -326,7 +326,9 @@ def round0(exp: Experiment) -> tuple:
     )
   demos = run.demonstrations()
   margin = float(exp.config.policy.normalizer_margin)
-  norm = normalizer_lib.fit(*policy_frames(demos), margin=margin, obs_min_span=exp.env.obs_min_span)
+  norm = normalizer_lib.fit(
+    *policy_frames(demos), margin=margin, obs_min_span=exp.env.obs_min_span, num_robots=exp.env.num_robots
+  )
   state = exp.fit_phase(0, [EpisodeSet(demos, 0)], norm)
   exp.evaluate_phase(0, state)
   exp.videos(0)

@@ -57,7 +57,8 @@ def rollouts(success) -> dict:
 
 
 def episode_jerk(positions, length: int | None = None, dt: float = CONTROL_DT) -> float:
-  """positions (T, 3) (padded beyond `length`) -> mean ||third difference|| / dt^3 over the episode."""
+  """positions (T, 3), or (T, R, 3) for R robots (padded beyond `length`) -> mean ||third difference||
+  / dt^3 over the episode (and the robots)."""
   p = np.asarray(positions, np.float64)
   p = p[: length if length is not None else p.shape[0]]
   if p.shape[0] < 4:
@@ -67,7 +68,7 @@ def episode_jerk(positions, length: int | None = None, dt: float = CONTROL_DT) -
 
 
 def average_jerk(positions, lengths, dt: float = CONTROL_DT) -> float:
-  """positions (N, T, 3), lengths (N,) -> the mean over episodes of each episode's jerk."""
+  """positions (N, T, [R,] 3), lengths (N,) -> the mean over episodes of each episode's jerk."""
   return float(np.mean([episode_jerk(p, int(n), dt) for p, n in zip(positions, lengths)]))
 
 

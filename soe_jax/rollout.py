@@ -15,8 +15,8 @@ and slice size give the same rollouts.
 
 Output (numpy, in the buffer's format): `obs` (N, H, D) raw low-dim policy observations before each
 action (an image policy's images are not kept: they are drawn again from the states where needed),
-`next_obs` (N, H, D) after it, `actions` (N, H, A), `eef_pos` (N, H + 1, 3) measured end-effector
-positions from the start, `qpos` (N, H, nq) simulator joint positions before each action, `states`
+`next_obs` (N, H, D) after it, `actions` (N, H, A), `eef_pos` (N, H + 1, R, 3) measured end-effector
+positions of the R robots from the start, `qpos` (N, H, nq) simulator joint positions before each action, `states`
 (N, H, 1 + nq + nv) float64 the simulator state [time, qpos, qvel] before each action (robomimic's
 `states`; the C engine's exactly), `length` (N,) actions up to and
 including the successful step (H, the episode length, if none), `success` (N,), `aux`
@@ -66,7 +66,7 @@ def decisions_fn(env: manipulation.ManipulationEnv, strategy: Strategy, n_action
         obs=manipulation.policy_obs(c.state.obs),
         action=action,
         next_obs=manipulation.policy_obs(nxt.obs),
-        eef=nxt.obs["robot0_eef_pos"],
+        eef=manipulation.eef_positions(nxt.obs),
         qpos=c.state.pipeline_state.qpos,
         sim_state=env.physics.sim_state(c.state.pipeline_state),
       )
@@ -114,7 +114,7 @@ def _run_slice(env, agent: Agent, strategy, reset_keys, key, decisions_per_call,
   ta, episode_length = agent.policy.n_action_steps, env.episode_length
   total = -(-episode_length // ta)
   carry = initial_carry(env, agent.policy.n_obs_steps, reset_keys, agent.policy.image_keys)
-  start_eef = np.asarray(carry.state.obs["robot0_eef_pos"])
+  start_eef = np.asarray(manipulation.eef_positions(carry.state.obs))
   records, auxes = [], []
   decided = 0
   while decided < total:

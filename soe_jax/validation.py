@@ -105,11 +105,12 @@ def _images(config) -> list[str]:
   out = []
   if mode != "image":
     out.append("policy.encoder 'image' reads camera images: set env.obs_mode='image' (the `image` preset does)")
-  cameras = list(enc.kwargs.get("cameras", manipulation.IMAGE_KEYS))
-  unknown = [c for c in cameras if c not in manipulation.IMAGE_KEYS]
-  if unknown:
+  drawn = env_registry.image_keys(config.env.task) if config.env.task in env_registry.env_names() else ()
+  cameras = list(enc.kwargs.get("cameras", drawn))
+  unknown = [c for c in cameras if c not in drawn]
+  if unknown and drawn:
     out.append(
-      f"unknown camera images {', '.join(map(repr, unknown))}; the tasks draw {', '.join(manipulation.IMAGE_KEYS)}"
+      f"unknown camera images {', '.join(map(repr, unknown))}; the {config.env.task} task draws {', '.join(drawn)}"
     )
   crop = enc.kwargs.get("crop_size", 76)
   if not 0 < crop <= config.env.image_size:
@@ -129,8 +130,8 @@ def _demonstration_file(config) -> list[str]:
   if len(episodes) < config.data.num_demos:
     return [f"{path} holds {len(episodes)} episodes; data.num_demos asks for {config.data.num_demos}"]
   factory = env_registry.TASKS.factory(config.env.task)
-  sizes = dict(manipulation.ROBOT_OBS_SIZES, object=factory.object_dim)
-  action = controller.action_size(config.env.action_mode)
+  sizes = manipulation.policy_obs_sizes(factory.object_dim, len(factory.bases))
+  action = env_registry.action_size(config.env.task, config.env.action_mode)
   for i, ep in enumerate(episodes[: config.data.num_demos]):
     for key, size in sizes.items():
       got = np.shape(ep["obs"].get(key, ()))

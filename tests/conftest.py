@@ -41,16 +41,16 @@ def _release_compiled_programs():
 
 
 @functools.cache
-def _env(name: str, backend: str = "mujoco", episode_length: int = 400):
+def _env(name: str, backend: str = "mujoco", episode_length: int | None = None):
   from soe_jax.envs import make_env
 
-  return make_env(name, backend=backend, episode_length=episode_length)
+  return make_env(name, backend=backend, **({} if episode_length is None else {"episode_length": episode_length}))
 
 
 @pytest.fixture(scope="session")
 def task_env():
-  """`task_env(name, backend="mujoco", episode_length=400) -> env`, one object per settings, so tests
-  share its compiled programs."""
+  """`task_env(name, backend="mujoco", episode_length=None) -> env` (None: the task's own), one object
+  per settings, so tests share its compiled programs."""
   return _env
 
 

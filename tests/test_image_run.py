@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from configs import lift as lift_config
+from configs import transport as transport_config
 from soe_jax import validation
 from soe_jax.envs import manipulation
 from tests.test_render import needs_egl
@@ -27,9 +28,20 @@ def test_image_configs_are_checked_before_anything_runs():
   config.policy.encoder.kwargs.crop_size = 90
   config.data.image_frames = 0
   found = "\n".join(validation.problems(config))
-  assert "unknown camera images 'sideview_image'; the tasks draw agentview_image, robot0_eye_in_hand_image" in found
+  assert (
+    "unknown camera images 'sideview_image'; the lift task draws agentview_image, robot0_eye_in_hand_image" in found
+  )
   assert "crop_size (90) must be in 1..env.image_size (84)" in found
   assert "data.image_frames must be at least 1" in found
+  # Transport's image policy reads robomimic's four cameras of that task.
+  config = transport_config.get_config("smoke,image")
+  assert config.policy.encoder.kwargs.cameras == (
+    "shouldercamera0_image",
+    "shouldercamera1_image",
+    "robot0_eye_in_hand_image",
+    "robot1_eye_in_hand_image",
+  )
+  assert validation.problems(config) == []
 
 
 @needs_egl

@@ -230,7 +230,7 @@ def test_a_rejected_config_writes_nothing(tmp_path):
   broken = tmp_path / "broken.hdf5"
   broken.write_text("not hdf5")
   for field, value, message in [
-    ("env.task", "nope", "unknown task 'nope'; known tasks: can, lift, square"),
+    ("env.task", "nope", "unknown task 'nope'; known tasks: can, lift, square, transport"),
     ("policy.head.name", "transformer", "known heads: diffusion_unet, flow_unet, mlp"),
     ("explore.strategy.name", "noise", "known strategies: dp, expert, sime"),
     ("explore.strategy.name", "sime", "strategy 'sime' has no setting 'alpha'"),  # soe's settings

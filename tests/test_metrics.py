@@ -52,6 +52,8 @@ def test_jerk_is_zero_for_a_quadratic_and_exact_for_a_cubic():
   np.testing.assert_allclose(
     metrics.average_jerk(np.stack([padded, np.concatenate([quad, quad[:10]])]), [40, 40]), np.sqrt(180.0) / 2, rtol=1e-6
   )
+  # Two arms: each arm's jerk, averaged over the arms.
+  np.testing.assert_allclose(metrics.episode_jerk(np.stack([cubic, quad], 1)), np.sqrt(180.0) / 2, rtol=1e-6)
 
 
 def test_relative_improvement_keeps_the_absolute_difference():

@@ -54,7 +54,7 @@ def test_records_history_episode_length_and_slices(task_env):
     env, agent, registry.make_strategy("dp"), keys, jax.random.PRNGKey(0), slice_size=2, progress=False
   )
   assert out["obs"].shape == (4, EPISODE, policy.obs_dim) and out["actions"].shape == (4, EPISODE, 10)
-  assert out["eef_pos"].shape == (4, EPISODE + 1, 3) and out["aux"] == {}
+  assert out["eef_pos"].shape == (4, EPISODE + 1, 1, 3) and out["aux"] == {}
   np.testing.assert_array_equal(out["length"], EPISODE)  # an untrained policy does not lift the cube
   assert not out["success"].any()
   # Every slice starts from its own keys' start states.
@@ -68,7 +68,7 @@ def test_records_history_episode_length_and_slices(task_env):
   np.testing.assert_array_equal(out["states"][:, 0], env.physics.float64_state(first)[:, : 1 + nq + nv])
   assert np.all(np.diff(out["states"][:, :, 0], axis=1) > 0)  # time advances every control step
   np.testing.assert_array_equal(out["next_obs"][:, :-1], out["obs"][:, 1:])  # the observation after each action
-  np.testing.assert_allclose(out["eef_pos"][:, 1:-1], out["obs"][:, 1:, :3], atol=1e-6)
+  np.testing.assert_allclose(out["eef_pos"][:, 1:-1, 0], out["obs"][:, 1:, :3], atol=1e-6)
   # Each observation is followed by the action taken from it: the first chunk is 8 steps long, then
   # the next decision starts from the observation after them.
   assert not np.allclose(out["actions"][:, 7], out["actions"][:, 8])

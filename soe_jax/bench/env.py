@@ -1,6 +1,6 @@
 """Environment throughput: control steps per second summed over a batch, compile excluded.
 
-The arm follows a smooth scripted motion (a 4 cm circle around its start pose, gripper cycling), so
+Each arm follows a smooth scripted motion (a 4 cm circle around its start pose, gripper cycling), so
 the IK, the servos and contacts all do real work. For the `mujoco` backend the time is split into
 physics (inside the C engine), host callback overhead (conversion, copies), IK and observations
 (each timed alone as the same compiled batch computation), and the remainder (scan, dispatch). With
@@ -15,16 +15,14 @@ import time
 import jax
 import jax.numpy as jnp
 
-from soe_jax.envs import make_env, rotations
+from soe_jax.envs import make_env, manipulation
 
 
 def _motion(obs0, t):
-  """Action (10,) at control step t: a circle of 4 cm radius in the horizontal plane."""
+  """Action (10 per robot) at control step t: each arm a circle of 4 cm radius in the horizontal plane."""
   angle = 2 * jnp.pi * t / 80.0
-  pos = obs0["robot0_eef_pos"] + 0.04 * jnp.array([jnp.cos(angle) - 1.0, jnp.sin(angle), 0.0])
-  rot6d = rotations.mat_to_rot6d(obs0["robot0_eef_rot"].reshape(3, 3))
-  grip = jnp.where(jnp.mod(t, 40) < 20, -1.0, 1.0)
-  return jnp.concatenate([pos, rot6d, grip[None]])
+  circle = 0.04 * jnp.array([jnp.cos(angle) - 1.0, jnp.sin(angle), 0.0])
+  return manipulation.pose_action(obs0, circle, jnp.where(jnp.mod(t, 40) < 20, -1.0, 1.0))
 
 
 def run(
@@ -103,11 +101,9 @@ def run(
 
 def _split(env, state, total, n, physics, render_s) -> dict:
   """Seconds per 1,000 control steps spent in each part of a step."""
-  from soe_jax.envs import controller
-
   qpos = state.pipeline_state.qpos
   action = jax.vmap(_motion, in_axes=(0, None))(state.obs, 0)
-  ik = jax.jit(jax.vmap(lambda a, q: controller.joint_controls(env.kin, env.action_mode, a, q[:7])))
+  ik = jax.jit(jax.vmap(env.controls))
   obs = jax.jit(jax.vmap(env._observe))
 
   def timed(fn, *args, reps=20):

@@ -37,9 +37,10 @@ def from_batch(obs: dict, actions, states, length, success, mask=None, next_obs:
   return out
 
 
-def from_rollout(out: dict, mask) -> list[dict]:
-  """The episodes of a rollout's output (`rollout.rollout`) where `mask` (N,) is set."""
-  obs, next_obs = (manipulation.split_policy_obs(out[k]) for k in ("obs", "next_obs"))
+def from_rollout(out: dict, mask, num_robots: int = 1) -> list[dict]:
+  """The episodes of a rollout's output (`rollout.rollout`) where `mask` (N,) is set, for a task of
+  `num_robots` robots."""
+  obs, next_obs = (manipulation.split_policy_obs(out[k], num_robots) for k in ("obs", "next_obs"))
   return from_batch(obs, out["actions"], out["states"], out["length"], out["success"], mask, next_obs)
 
 
@@ -53,7 +54,9 @@ def draw_images(env, episodes: list[dict], keys: tuple[str, ...]) -> list[dict]:
   if any("states" not in ep for ep in todo):
     raise ValueError("an episode without simulator states has no images to draw; image policies need states")
   nq = env.mj_model.nq
-  qpos = np.concatenate([np.asarray(ep["states"])[:, 1 : 1 + nq] for ep in todo])
+  # In float32, as a step draws its observation from the state's float32 qpos: the same pixels (the
+  # float64 pose can turn a pixel at an edge).
+  qpos = np.concatenate([np.asarray(ep["states"])[:, 1 : 1 + nq] for ep in todo]).astype(np.float32)
   drawn = env.draw(qpos)
   start = 0
   for ep in todo:

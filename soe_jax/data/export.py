@@ -114,11 +114,10 @@ def export(workdir: str, fmt: str, out: str, r: int | None = None) -> tuple[list
   if fmt == "robomimic" and meta["env_kwargs"].get("obs_mode") == "image":
     import ml_collections
 
-    from soe_jax.envs import manipulation
     from soe_jax.envs import registry as env_registry
 
     env = env_registry.env_from_config(ml_collections.ConfigDict(dict(meta["env_kwargs"], backend="mujoco")))
-    draw_images(env, [ep for s in sets for ep in s.episodes], manipulation.IMAGE_KEYS)
+    draw_images(env, [ep for s in sets for ep in s.episodes], env.image_keys)
   {"robomimic": write_robomimic, "zarr": zarr_store.write, "rlds": rlds.write}[fmt](out, sets, meta)
   return sets, meta
 

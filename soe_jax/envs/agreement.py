@@ -14,17 +14,15 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from soe_jax.envs import rotations
+from soe_jax.envs import manipulation
 
 
 def scripted_motion(obs0: dict, t: jax.Array) -> jax.Array:
-  """Absolute action (10,) at control step t: a 5 x 8 x 6 cm loop from the start pose, gripper closing
-  at step 25."""
+  """Absolute action (10 per robot) at control step t: each arm traces a 5 x 8 x 6 cm loop from its
+  start pose, its gripper closing at step 25."""
   angle = 2 * jnp.pi * t / 50.0
-  pos = obs0["robot0_eef_pos"] + jnp.array([0.05 * jnp.sin(angle), 0.04 * (1 - jnp.cos(angle)), -0.03 * jnp.sin(angle)])
-  return jnp.concatenate(
-    [pos, rotations.mat_to_rot6d(obs0["robot0_eef_rot"].reshape(3, 3)), jnp.where(t < 25, -1.0, 1.0)[None]]
-  )
+  loop = jnp.array([0.05 * jnp.sin(angle), 0.04 * (1 - jnp.cos(angle)), -0.03 * jnp.sin(angle)])
+  return manipulation.pose_action(obs0, loop, jnp.where(t < 25, -1.0, 1.0))
 
 
 def eef_paths(env, keys: jax.Array, steps: int = 50) -> np.ndarray:

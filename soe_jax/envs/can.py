@@ -62,7 +62,7 @@ def _bin_mjcf(name: str, center, dividers: bool) -> str:
 
 class Can(manipulation.ManipulationEnv):
   name = "can"
-  base_pos = (-0.5, -0.1, 0.912)
+  bases = (((-0.5, -0.1, 0.912), 0.0),)
   object_dim = 14
   object_layout = (("pos", 3), ("quat", 4), ("pos", 3), ("rel_quat", 4))
   agentview = dict(pos="1.0 0 1.75", quat="0.653 0.271 0.271 0.653")
@@ -89,9 +89,10 @@ class Can(manipulation.ManipulationEnv):
     yaw = jax.random.uniform(key_yaw, (), maxval=2 * jnp.pi)
     return manipulation.yaw_free_qpos(jnp.concatenate([xy, jnp.array([FLOOR_TOP + CAN_HALF_HEIGHT])]), yaw)
 
-  def _object_obs(self, qpos, eef_pos, hand_rot, hand_quat):
+  def _object_obs(self, qpos, arms):
+    arm = arms[0]
     pos, quat = manipulation.free_body_pose(qpos, OBJECT_QPOS)
-    rel_pos, rel_quat = manipulation.pose_in_eef(pos, quat, eef_pos, hand_rot, hand_quat)
+    rel_pos, rel_quat = manipulation.pose_in_eef(pos, quat, arm.eef_pos, arm.hand_rot, arm.hand_quat)
     return jnp.concatenate([pos, rotations.wxyz_to_xyzw(quat), rel_pos, rel_quat])
 
   def _success(self, qpos, eef_pos):

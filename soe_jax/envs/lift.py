@@ -24,7 +24,7 @@ OBJECT_QPOS = 9  # the cube's free joint starts here
 
 class Lift(manipulation.ManipulationEnv):
   name = "lift"
-  base_pos = (-0.56, 0.0, 0.912)
+  bases = (((-0.56, 0.0, 0.912), 0.0),)
   object_dim = 10
   object_layout = (("pos", 3), ("quat", 4), ("pos", 3))
 
@@ -45,9 +45,10 @@ class Lift(manipulation.ManipulationEnv):
     yaw = jax.random.uniform(key_yaw, (), maxval=2 * jnp.pi)
     return manipulation.yaw_free_qpos(jnp.concatenate([xy, jnp.array([TABLE_TOP + 0.01 + CUBE_HALF])]), yaw)
 
-  def _object_obs(self, qpos, eef_pos, hand_rot, hand_quat):
+  def _object_obs(self, qpos, arms):
+    arm = arms[0]
     pos, quat = manipulation.free_body_pose(qpos, OBJECT_QPOS)
-    return jnp.concatenate([pos, rotations.wxyz_to_xyzw(quat), eef_pos - pos])
+    return jnp.concatenate([pos, rotations.wxyz_to_xyzw(quat), arm.eef_pos - pos])
 
   def _success(self, qpos, eef_pos):
     return qpos[OBJECT_QPOS + 2] > SUCCESS_HEIGHT

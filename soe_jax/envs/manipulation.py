@@ -1,20 +1,24 @@
-"""The shared single-arm manipulation environment: a brax `Env` over either physics backend.
+"""The shared manipulation environment of one or two Panda arms: a brax `Env` over either physics backend.
 
-A task subclasses `ManipulationEnv` and supplies its scene (`_scene_mjcf`), its start-state
-distribution (`_sample_objects`), its `object` observation (`_object_obs`) and its success check
-(`_success`). Everything here is pure JAX; only the substep loop differs between backends.
+A task subclasses `ManipulationEnv` and supplies its robots' bases (`bases`), its scene
+(`_scene_mjcf`), its start-state distribution (`_sample_objects`), its `object` observation
+(`_object_obs`) and its success check (`_success`). Everything here is pure JAX; only the substep
+loop differs between backends.
 
-Observations (`state.obs`, a dict with robomimic's key names):
-  robot0_eef_pos (3)       grip-site position, world frame
-  robot0_eef_quat (4)      right_hand body orientation, xyzw
-  robot0_gripper_qpos (2)  finger slide positions (open ~ (0.04, -0.04))
-  object (Lift 10, Can 14, Square 14)
-and extras for experts and metrics: robot0_joint_pos (7), robot0_eef_rot (9, grip-site rotation
-matrix, row-major). The policy sees `POLICY_OBS_KEYS` concatenated in that order. With
+Robot k's joint positions are qpos[9k : 9k + 9] (7 arm joints, 2 finger slides), the objects' free
+joints follow; its action is the k-th block of 10 (or 7) numbers, robot0 first.
+
+Observations (`state.obs`, a dict with robomimic's key names), per robot k:
+  robot<k>_eef_pos (3)       grip-site position, world frame
+  robot<k>_eef_quat (4)      right_hand body orientation, xyzw
+  robot<k>_gripper_qpos (2)  finger slide positions (open ~ (0.04, -0.04))
+then object (Lift 10, Can 14, Square 14, Transport 41), and extras for experts and metrics:
+robot<k>_joint_pos (7), robot<k>_eef_rot (9, grip-site rotation matrix, row-major). The policy sees
+`policy_obs_keys(num_robots)` concatenated in that order (`POLICY_OBS_KEYS` for one robot). With
 `obs_mode="image"` the observations also hold robomimic's camera images, uint8 (size, size, 3), rows
 top-down, drawn after every control step (and at reset) from the joint positions by a pool of
 renderer processes on the host (`render.pool`), reached through `jax.pure_callback` on either
-backend:
+backend; the single-arm tasks' cameras (`CAMERAS`; a task may name others, `image_cameras`):
   agentview_image            the fixed camera facing the robot (robosuite's `agentview` pose)
   robot0_eye_in_hand_image   the wrist camera on the hand, looking out between the fingers
 
@@ -33,6 +37,7 @@ the same rotation, so each quantity needs a sign convention):
 from __future__ import annotations
 
 import time
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -44,16 +49,31 @@ from brax.envs.base import Env, State
 from soe_jax.envs import controller, panda, physics, rotations
 from soe_jax.render import pool
 
-POLICY_OBS_KEYS = ("robot0_eef_pos", "robot0_eef_quat", "robot0_gripper_qpos", "object")
-# Sizes of the policy's observation keys; `object` is the task's own (`ManipulationEnv.object_dim`).
-ROBOT_OBS_SIZES = {"robot0_eef_pos": 3, "robot0_eef_quat": 4, "robot0_gripper_qpos": 2}
+# Sizes of one robot's policy-observation keys, `robot<k>_` + each; `object` is the task's own
+# (`ManipulationEnv.object_dim`).
+ROBOT_KEY_SIZES = {"eef_pos": 3, "eef_quat": 4, "gripper_qpos": 2}
+
+
+def policy_obs_sizes(object_dim: int, num_robots: int = 1) -> dict[str, int]:
+  """{key: size} of the policy's observation, in its order: each robot's keys, then `object`."""
+  sizes = {f"robot{k}_{key}": size for k in range(num_robots) for key, size in ROBOT_KEY_SIZES.items()}
+  return {**sizes, "object": object_dim}
+
+
+def policy_obs_keys(num_robots: int = 1) -> tuple[str, ...]:
+  """The policy's observation keys in order, for `num_robots` robots."""
+  return tuple(policy_obs_sizes(0, num_robots))
+
+
+POLICY_OBS_KEYS = policy_obs_keys(1)
 # What each policy-observation number is: (kind, size) in order; tasks give their `object_layout`.
 ROBOT_OBS_LAYOUT = (("pos", 3), ("hand_quat", 4), ("finger", 2))
 # The smallest span the normaliser maps to [-1, 1] per kind, from the quantity's physical range, so no
 # dimension's gain exceeds 2 / span: positions 0.08 m (a tenth of the 0.8 m table, the workspace;
 # gain <= 25 per m), fingers their 0.04 m travel (<= 50 per m), unit-quaternion components a quarter
 # of their [-1, 1] range (<= 4).
-MIN_SPAN = {"pos": 0.08, "finger": 0.04, "hand_quat": 0.5, "quat": 0.5, "rel_quat": 0.5}
+# 0 / 1 indicators (`flag`) their whole range.
+MIN_SPAN = {"pos": 0.08, "finger": 0.04, "hand_quat": 0.5, "quat": 0.5, "rel_quat": 0.5, "flag": 1.0}
 CONTROL_DT = 0.05  # 20 Hz
 PHYSICS_DT = 0.002
 AGENTVIEW = dict(pos="0.5 0 1.35", quat="0.653 0.271 0.271 0.653")
@@ -79,25 +99,57 @@ def base_config() -> ml_collections.ConfigDict:
   )
 
 
-def policy_obs_size(object_dim: int) -> int:
+def policy_obs_size(object_dim: int, num_robots: int = 1) -> int:
   """The policy's observation size for a task with an `object` vector of `object_dim` numbers."""
-  return sum(ROBOT_OBS_SIZES.values()) + object_dim
+  return sum(policy_obs_sizes(object_dim, num_robots).values())
 
 
-def split_policy_obs(obs):
-  """(..., D) policy observations -> {key: (..., size)} in `POLICY_OBS_KEYS` order (`object` takes the rest)."""
+def split_policy_obs(obs, num_robots: int = 1):
+  """(..., D) policy observations -> {key: (..., size)} in `policy_obs_keys` order (`object` takes the rest)."""
   out, start = {}, 0
-  for k in POLICY_OBS_KEYS:
-    size = ROBOT_OBS_SIZES.get(k, obs.shape[-1] - start)
+  for k, size in policy_obs_sizes(obs.shape[-1] - policy_obs_size(0, num_robots), num_robots).items():
     out[k] = obs[..., start : start + size]
     start += size
   return out
 
 
+def num_robots_in(obs: dict) -> int:
+  """How many robots' keys the observations hold (robot0_..., robot1_..., ...)."""
+  k = 0
+  while f"robot{k}_eef_pos" in obs:
+    k += 1
+  return k
+
+
+def eef_positions(obs: dict) -> jax.Array:
+  """(..., R, 3): every robot's grip-site position, robot0 first."""
+  return jnp.stack([obs[f"robot{k}_eef_pos"] for k in range(num_robots_in(obs))], -2)
+
+
+def action_positions(actions: jax.Array, num_robots: int = 1) -> jax.Array:
+  """(..., A) actions -> (..., R, 3): each robot's commanded position (the first 3 numbers of its block)."""
+  return actions.reshape(actions.shape[:-1] + (num_robots, -1))[..., :3]
+
+
+def pose_action(obs: dict, offset=0.0, grip=-1.0) -> jax.Array:
+  """An absolute action (10 per robot): every arm's grip site at its pose in `obs`, moved by `offset`
+  (3,), its gripper commanded to `grip`."""
+  grip = jnp.reshape(jnp.asarray(grip, jnp.float32), (1,))
+  return jnp.concatenate(
+    [
+      jnp.concatenate(
+        [obs[f"robot{k}_eef_pos"] + offset, rotations.mat_to_rot6d(obs[f"robot{k}_eef_rot"].reshape(3, 3)), grip]
+      )
+      for k in range(num_robots_in(obs))
+    ]
+  )
+
+
 def policy_obs(obs: dict, xp=jnp) -> jax.Array:
-  """The policy's observation vector: the four low-dim keys concatenated, (..., 19 or 23); `xp=np` on
-  the host."""
-  return xp.concatenate([xp.asarray(obs[k], xp.float32) for k in POLICY_OBS_KEYS], axis=-1)
+  """The policy's observation vector: every robot's low-dim keys, then `object`, concatenated, (..., 19
+  or 23; 59 for two robots); `xp=np` on the host."""
+  keys = policy_obs_keys(num_robots_in(obs))
+  return xp.concatenate([xp.asarray(obs[k], xp.float32) for k in keys], axis=-1)
 
 
 def policy_input(obs: dict, image_keys: tuple[str, ...] = ()):
@@ -115,15 +167,25 @@ def policy_input(obs: dict, image_keys: tuple[str, ...] = ()):
   return {"lowdim": vector, "images": {k: obs[k] for k in image_keys}}
 
 
+class Arm(NamedTuple):
+  """What a task's `object` observation may read of one robot."""
+
+  eef_pos: jax.Array  # (3,) grip site, world frame
+  hand_rot: jax.Array  # (3, 3) right_hand body orientation
+  hand_quat: jax.Array  # (4,) wxyz, in the hand's hemisphere
+
+
 class ManipulationEnv(Env):
-  """Panda arm + task scene, 20 Hz absolute end-effector pose control, sparse success reward."""
+  """Panda arms + task scene, 20 Hz absolute end-effector pose control, sparse success reward."""
 
   name: str = ""
-  base_pos: tuple = (-0.56, 0.0, 0.912)
+  # Each robot's base: ((x, y, z), yaw about world z), robot0 first.
+  bases: tuple = (((-0.56, 0.0, 0.912), 0.0),)
   object_dim: int = 0
   # (kind, size) of the `object` vector's parts: pos, quat (world frame), rel_quat (in the eef frame).
   object_layout: tuple = ()
   agentview: dict = AGENTVIEW
+  image_cameras: tuple = CAMERAS  # the cameras drawn with obs_mode="image", each `<camera>_image`
   # The accelerator scene: MJX's own solver options (MuJoCo Playground's Panda tasks use 5 / 8 and
   # pyramidal cones; the C engine keeps the scene's 100 / 50, elliptic), and MuJoCo Warp's buffers
   # per environment, sized at least 1.5x the most any demonstration state uses (`bench mjx`, a test).
@@ -134,13 +196,16 @@ class ManipulationEnv(Env):
   def __init__(self, config: ml_collections.ConfigDict | None = None):
     self.config = config if config is not None else self.default_config()
     self.action_mode = self.config.action_mode
-    self._action_size = controller.action_size(self.action_mode)
+    self.num_robots = len(self.bases)
+    self._action_size = controller.action_size(self.action_mode) * self.num_robots
     self.mj_model = mujoco.MjModel.from_xml_string(self.mjcf())
-    self.kin = panda.Kinematics(self.base_pos)
-    # wxyz, the hemisphere of `robot0_eef_quat` (module docstring).
-    self.hand_reference = np.asarray(
-      rotations.mat_to_quat_wxyz(self.kin.forward(jnp.asarray(panda.INIT_QPOS))["hand_rot"])
+    self.kins = tuple(panda.Kinematics(pos, yaw) for pos, yaw in self.bases)
+    self.kin = self.kins[0]
+    # wxyz, the hemispheres of each `robot<k>_eef_quat` (module docstring).
+    self.hand_references = tuple(
+      np.asarray(rotations.mat_to_quat_wxyz(kin.forward(jnp.asarray(panda.INIT_QPOS))["hand_rot"])) for kin in self.kins
     )
+    self.hand_reference = self.hand_references[0]
     self.physics = physics.make_backend(
       self.config.backend,
       self.mj_model,
@@ -160,8 +225,8 @@ class ManipulationEnv(Env):
       )
     self.obs_mode = self.config.obs_mode
     self.image_size = int(self.config.image_size)
-    self.cameras = CAMERAS if self.obs_mode == "image" else ()
-    self.image_keys = IMAGE_KEYS if self.cameras else ()
+    self.cameras = tuple(self.image_cameras) if self.obs_mode == "image" else ()
+    self.image_keys = tuple(f"{c}_image" for c in self.cameras)
     # Started on the first image; `render_seconds` is the time spent drawing, for benchmarks.
     # No multisampling: the images are the policy's input, and llvmpipe draws them 2x faster without.
     self.renderer = pool.Renderer(self.mj_model, self.cameras, self.image_size, samples=0) if self.cameras else None
@@ -183,12 +248,12 @@ class ManipulationEnv(Env):
     """Object qpos (free joints) at reset, (nq - 9,)."""
     raise NotImplementedError
 
-  def _object_obs(self, qpos: jax.Array, eef_pos: jax.Array, hand_rot: jax.Array, hand_quat: jax.Array) -> jax.Array:
-    """The task's `object` vector, laid out as `object_layout` says; `hand_quat` is the hand's wxyz
-    quaternion in its hemisphere."""
+  def _object_obs(self, qpos: jax.Array, arms: tuple[Arm, ...]) -> jax.Array:
+    """The task's `object` vector, laid out as `object_layout` says; `arms` are the robots', robot0 first."""
     raise NotImplementedError
 
   def _success(self, qpos: jax.Array, eef_pos: jax.Array) -> jax.Array:
+    """Success at joint positions `qpos`, robot0's grip site at `eef_pos`."""
     raise NotImplementedError
 
   # -- model ----------------------------------------------------------------------------------
@@ -206,22 +271,26 @@ class ManipulationEnv(Env):
     <light pos="0 0 3" dir="0 0 -1" directional="true" diffuse="0.4 0.4 0.4" specular="0.05 0.05 0.05"/>
     <light pos="1.5 1 2" dir="-0.6 -0.4 -0.7" directional="true" diffuse="0.2 0.2 0.2" specular="0 0 0"/>
     <geom name="floor" type="plane" size="3 3 0.1" {panda.FIXTURE_COLLISION} rgba="0.6 0.6 0.6 1"/>
-    <camera name="agentview" pos="{cam["pos"]}" quat="{cam["quat"]}" fovy="45"/>
-    {panda.robot_mjcf(self.base_pos)}
+    <camera name="agentview" {" ".join(f'{k}="{v}"' for k, v in cam.items())} fovy="45"/>
+    {"".join(panda.robot_mjcf(pos, yaw, k) for k, (pos, yaw) in enumerate(self.bases))}
     {self._scene_mjcf()}
   </worldbody>
-  <contact><exclude body1="finger1" body2="finger2"/></contact>
-  <actuator>{panda.robot_actuators_mjcf()}</actuator>
+  <contact>{"".join(f'<exclude body1="{p}finger1" body2="{p}finger2"/>' for p in map(panda.prefix, range(len(self.bases))))}</contact>
+  <actuator>{"".join(panda.robot_actuators_mjcf(k) for k in range(len(self.bases)))}</actuator>
 </mujoco>"""
 
   @property
   def observation_size(self) -> int:
-    return policy_obs_size(self.object_dim)
+    return policy_obs_size(self.object_dim, self.num_robots)
+
+  @property
+  def policy_obs_keys(self) -> tuple[str, ...]:
+    return policy_obs_keys(self.num_robots)
 
   @property
   def obs_layout(self) -> tuple:
     """(kind, size) of every part of the policy observation, in order."""
-    return ROBOT_OBS_LAYOUT + tuple(self.object_layout)
+    return ROBOT_OBS_LAYOUT * self.num_robots + tuple(self.object_layout)
 
   @property
   def obs_min_span(self) -> np.ndarray:
@@ -232,8 +301,10 @@ class ManipulationEnv(Env):
     """One episode's observations {key: (T, .)}, recorded with any quaternion signs, in this task's
     convention (module docstring); observations made here come back unchanged."""
     out = {k: np.array(v) for k, v in obs.items()}
-    hand = rotations.same_hemisphere(_wxyz(out["robot0_eef_quat"]), self.hand_reference)
-    out["robot0_eef_quat"] = np.asarray(rotations.wxyz_to_xyzw(hand))
+    for k, reference in enumerate(self.hand_references):
+      conformed = rotations.same_hemisphere(_wxyz(out[f"robot{k}_eef_quat"]), reference)
+      out[f"robot{k}_eef_quat"] = np.asarray(rotations.wxyz_to_xyzw(conformed))
+    hand = _wxyz(out["robot0_eef_quat"])  # the eef frame of `rel_quat` parts
     start, world = 0, None
     for kind, size in self.object_layout:
       part = slice(start, start + size)
@@ -264,9 +335,10 @@ class ManipulationEnv(Env):
   def sample_qpos(self, rng: jax.Array) -> jax.Array:
     """The start state's joint positions (nq,), a pure function of the key."""
     key_arm, key_obj = jax.random.split(rng)
-    arm = jnp.asarray(panda.INIT_QPOS) + panda.INIT_NOISE * jax.random.normal(key_arm, (7,))
-    fingers = jnp.array([panda.FINGER_INIT, -panda.FINGER_INIT])
-    return jnp.concatenate([arm, fingers, self._sample_objects(key_obj)]).astype(jnp.float32)
+    arms = jnp.asarray(panda.INIT_QPOS) + panda.INIT_NOISE * jax.random.normal(key_arm, (self.num_robots, 7))
+    fingers = jnp.broadcast_to(jnp.array([panda.FINGER_INIT, -panda.FINGER_INIT]), (self.num_robots, 2))
+    robots = jnp.concatenate([arms, fingers], 1).reshape(-1)
+    return jnp.concatenate([robots, self._sample_objects(key_obj)]).astype(jnp.float32)
 
   def reset(self, rng: jax.Array) -> State:
     qpos = self.sample_qpos(rng)
@@ -281,12 +353,20 @@ class ManipulationEnv(Env):
         f"{self.name}: expected an action of shape ({self.action_size},) for action mode "
         f"{self.action_mode!r}, got {tuple(action.shape)}"
       )
-    ps = state.pipeline_state
-    ctrl = controller.joint_controls(self.kin, self.action_mode, action, ps.qpos[:7])
-    ps = self.physics.step(ps, ctrl)
+    ps = self.physics.step(state.pipeline_state, self.controls(action, state.pipeline_state.qpos))
     obs, success = self._observe(ps)
     reward = self._get_reward(success)
     return state.replace(pipeline_state=ps, obs=obs, reward=reward, done=success, metrics={"success": success})
+
+  def controls(self, action: jax.Array, qpos: jax.Array) -> jax.Array:
+    """The servos' targets (9 per robot) for `action` (its k-th block robot k's) at joint positions `qpos`."""
+    blocks = jnp.split(action, self.num_robots)
+    return jnp.concatenate(
+      [
+        controller.joint_controls(kin, self.action_mode, a, qpos[9 * k : 9 * k + 7])
+        for k, (kin, a) in enumerate(zip(self.kins, blocks))
+      ]
+    )
 
   def _get_reward(self, success: jax.Array) -> jax.Array:
     """Sparse, as robomimic evaluates: 1 on success."""
@@ -294,19 +374,21 @@ class ManipulationEnv(Env):
 
   def _observe(self, ps: physics.PhysicsState):
     qpos = ps.qpos
-    fk = self.kin.forward(qpos[:7])
-    hand_quat = rotations.mat_to_quat_wxyz(fk["hand_rot"], self.hand_reference)
-    obs = {
-      "robot0_eef_pos": fk["site_pos"],
-      "robot0_eef_quat": rotations.wxyz_to_xyzw(hand_quat),
-      "robot0_gripper_qpos": qpos[7:9],
-      "object": self._object_obs(qpos, fk["site_pos"], fk["hand_rot"], hand_quat),
-      "robot0_joint_pos": qpos[:7],
-      "robot0_eef_rot": fk["site_rot"].reshape(9),
-    }
+    obs, extras, arms = {}, {}, []
+    for k, (kin, reference) in enumerate(zip(self.kins, self.hand_references)):
+      q = qpos[9 * k : 9 * k + 9]
+      fk = kin.forward(q[:7])
+      hand_quat = rotations.mat_to_quat_wxyz(fk["hand_rot"], reference)
+      obs[f"robot{k}_eef_pos"] = fk["site_pos"]
+      obs[f"robot{k}_eef_quat"] = rotations.wxyz_to_xyzw(hand_quat)
+      obs[f"robot{k}_gripper_qpos"] = q[7:9]
+      extras[f"robot{k}_joint_pos"] = q[:7]
+      extras[f"robot{k}_eef_rot"] = fk["site_rot"].reshape(9)
+      arms.append(Arm(fk["site_pos"], fk["hand_rot"], hand_quat))
+    obs = {**obs, "object": self._object_obs(qpos, tuple(arms)), **extras}
     if self.cameras:
       obs.update(self._images(qpos))
-    return obs, self._success(qpos, fk["site_pos"]).astype(jnp.float32)
+    return obs, self._success(qpos, arms[0].eef_pos).astype(jnp.float32)
 
   def _images(self, qpos: jax.Array) -> dict:
     """{`<camera>_image`: (..., size, size, 3) uint8} at joint positions `qpos` (..., nq), drawn on the host."""

@@ -105,8 +105,21 @@ def _fmt(v) -> str:
   return " ".join(f"{float(x):.6g}" for x in np.ravel(v))
 
 
-def robot_mjcf(base_pos) -> str:
-  """MJCF for the arm, hand and fingers, to be placed in `<worldbody>`, base at `base_pos`."""
+def prefix(index: int) -> str:
+  """Robot `index`'s prefix for body, joint, geom, site and actuator names: none for robot0 (the
+  single-arm tasks' names), `robot<index>_` for the others."""
+  return f"robot{index}_" if index else ""
+
+
+def eye_in_hand(index: int) -> str:
+  """The wrist camera of robot `index` (robomimic's `robot<index>_eye_in_hand_image`)."""
+  return f"robot{index}_eye_in_hand"
+
+
+def robot_mjcf(base_pos, base_yaw: float = 0.0, index: int = 0) -> str:
+  """MJCF for the arm, hand and fingers of robot `index`, to be placed in `<worldbody>`, base at
+  `base_pos` turned by `base_yaw` about world z."""
+  n = prefix(index)
   link_vis = [  # fromto capsules from each link origin towards the next joint, for rendering only
     "0 0 0 0 0 0.333",
     "0 0 -0.05 0 0 0.05",
@@ -118,43 +131,43 @@ def robot_mjcf(base_pos) -> str:
     "0 0 0 0 0 0.1065",
   ]
   xml = [
-    f'<body name="link0" pos="{_fmt(base_pos)}">',
+    f'<body name="{n}link0" pos="{_fmt(base_pos)}" quat="{_fmt(np.asarray(rotations.yaw_quat_wxyz(base_yaw)))}">',
     f'<inertial pos="{_fmt(LINK_COM[0])}" mass="{LINK_MASS[0]}" diaginertia="{_fmt([LINK_INERTIA[0]] * 3)}"/>',
     f'<geom type="capsule" size="0.06" fromto="{link_vis[0]}" {VISUAL} rgba="1 1 1 1"/>',
     '<geom type="cylinder" size="0.18 0.31" pos="0 0 -0.6" ' + VISUAL + ' rgba="0.2 0.2 0.2 1"/>',
   ]
   for i in range(7):
     lo, hi = JOINT_RANGE[i]
-    xml.append(f'<body name="link{i + 1}" pos="{_fmt(LINK_POS[i])}" quat="{_fmt(LINK_QUAT[i])}" gravcomp="1">')
+    xml.append(f'<body name="{n}link{i + 1}" pos="{_fmt(LINK_POS[i])}" quat="{_fmt(LINK_QUAT[i])}" gravcomp="1">')
     xml.append(
       f'<inertial pos="{_fmt(LINK_COM[i + 1])}" mass="{LINK_MASS[i + 1]}" '
       f'diaginertia="{_fmt([LINK_INERTIA[i + 1]] * 3)}"/>'
     )
     xml.append(
-      f'<joint name="joint{i + 1}" type="hinge" axis="0 0 1" range="{lo} {hi}" '
+      f'<joint name="{n}joint{i + 1}" type="hinge" axis="0 0 1" range="{lo} {hi}" '
       f'damping="{DAMPING[i]}" armature="{ARMATURE[i]:.6g}" frictionloss="0.1"/>'
     )
     xml.append(f'<geom type="capsule" size="0.05" fromto="{link_vis[i + 1]}" {VISUAL} rgba="1 1 1 1"/>')
-  xml.append(f'<body name="right_hand" pos="{_fmt(HAND_POS)}" quat="{_fmt(HAND_QUAT)}" gravcomp="1">')
+  xml.append(f'<body name="{n}right_hand" pos="{_fmt(HAND_POS)}" quat="{_fmt(HAND_QUAT)}" gravcomp="1">')
   xml.append('<inertial pos="0 0 0" mass="0.5" diaginertia="0.05 0.05 0.05"/>')
   # robosuite's wrist camera, looking out along the approach axis between the fingers.
-  xml.append(f'<camera name="{EYE_IN_HAND}" pos="0.05 0 0" quat="0 0.707108 0.707108 0" fovy="75"/>')
-  xml.append(f'<body name="right_gripper" quat="{_fmt(GRIPPER_QUAT)}" gravcomp="1">')
+  xml.append(f'<camera name="{eye_in_hand(index)}" pos="0.05 0 0" quat="0 0.707108 0.707108 0" fovy="75"/>')
+  xml.append(f'<body name="{n}right_gripper" quat="{_fmt(GRIPPER_QUAT)}" gravcomp="1">')
   xml.append('<inertial pos="0 0 0.04" mass="0.3" diaginertia="0.001 0.001 0.001"/>')
   # Palm: its bottom face sits 31 mm behind the grip site, along the approach axis (local z).
   xml.append(
-    f'<geom name="hand" type="box" size="0.03 0.1 0.0225" pos="0 0 0.0435" {GRIPPER_COLLISION} '
+    f'<geom name="{n}hand" type="box" size="0.03 0.1 0.0225" pos="0 0 0.0435" {GRIPPER_COLLISION} '
     'friction="1 0.005 0.0001" rgba="0.9 0.9 0.9 1"/>'
   )
-  xml.append(f'<site name="grip_site" pos="{_fmt(GRIP_SITE_POS)}" size="0.005" rgba="1 0 0 0.5" group="2"/>')
+  xml.append(f'<site name="{n}grip_site" pos="{_fmt(GRIP_SITE_POS)}" size="0.005" rgba="1 0 0 0.5" group="2"/>')
   # The finger bodies are turned back +90 deg, so they slide along the hand's y axis, which is
   # the grip site's x axis (the closing axis).
   for side, sign in (("finger1", 1), ("finger2", -1)):
     lo, hi = (0.0, FINGER_TRAVEL) if sign > 0 else (-FINGER_TRAVEL, 0.0)
-    xml.append(f'<body name="{side}" pos="0 0 {FINGER_Z}" quat="{_fmt([_S, 0, 0, _S])}" gravcomp="1">')
+    xml.append(f'<body name="{n}{side}" pos="0 0 {FINGER_Z}" quat="{_fmt([_S, 0, 0, _S])}" gravcomp="1">')
     xml.append('<inertial pos="0 0 0.03" mass="0.1" diaginertia="0.0001 0.0001 0.0001"/>')
     xml.append(
-      f'<joint name="{side}_joint" type="slide" axis="0 1 0" range="{lo} {hi}" damping="100" '
+      f'<joint name="{n}{side}_joint" type="slide" axis="0 1 0" range="{lo} {hi}" damping="100" '
       'armature="1.0" frictionloss="1.0"/>'
     )
     # Finger body behind the pad (outer side) and the pad whose inner face is at y = 0 of the body.
@@ -163,7 +176,7 @@ def robot_mjcf(base_pos) -> str:
       'friction="1 0.005 0.0001" rgba="0.9 0.9 0.9 1"/>'
     )
     xml.append(
-      f'<geom name="{side}_pad" type="box" size="0.008 0.004 0.008" pos="0 {sign * 0.004} 0.0446" '
+      f'<geom name="{n}{side}_pad" type="box" size="0.008 0.004 0.008" pos="0 {sign * 0.004} 0.0446" '
       f'{GRIPPER_COLLISION} condim="4" friction="2 0.05 0.0001" solref="0.01 0.5" rgba="0.3 0.3 0.3 1"/>'
     )
     xml.append("</body>")
@@ -173,21 +186,21 @@ def robot_mjcf(base_pos) -> str:
   return "\n".join(xml)
 
 
-def robot_actuators_mjcf() -> str:
-  """Joint position servos (arm) and force-limited finger servos."""
-  xml = []
+def robot_actuators_mjcf(index: int = 0) -> str:
+  """Joint position servos (arm) and force-limited finger servos of robot `index`."""
+  n, xml = prefix(index), []
   for i in range(7):
     lo, hi = JOINT_RANGE[i]
     xml.append(
-      f'<position name="act{i + 1}" joint="joint{i + 1}" kp="{SERVO_KP[i]:.6g}" kv="{SERVO_KV[i]:.6g}" '
+      f'<position name="{n}act{i + 1}" joint="{n}joint{i + 1}" kp="{SERVO_KP[i]:.6g}" kv="{SERVO_KV[i]:.6g}" '
       f'ctrlrange="{lo} {hi}" forcerange="{-TORQUE_LIMIT[i]} {TORQUE_LIMIT[i]}"/>'
     )
   xml.append(
-    f'<position name="act_finger1" joint="finger1_joint" kp="{FINGER_KP}" ctrlrange="0 {FINGER_TRAVEL}" '
+    f'<position name="{n}act_finger1" joint="{n}finger1_joint" kp="{FINGER_KP}" ctrlrange="0 {FINGER_TRAVEL}" '
     f'forcerange="{-FINGER_FORCE} {FINGER_FORCE}"/>'
   )
   xml.append(
-    f'<position name="act_finger2" joint="finger2_joint" kp="{FINGER_KP}" ctrlrange="{-FINGER_TRAVEL} 0" '
+    f'<position name="{n}act_finger2" joint="{n}finger2_joint" kp="{FINGER_KP}" ctrlrange="{-FINGER_TRAVEL} 0" '
     f'forcerange="{-FINGER_FORCE} {FINGER_FORCE}"/>'
   )
   return "\n".join(xml)
@@ -198,10 +211,11 @@ def _transform(pos, quat):
 
 
 class Kinematics:
-  """Forward kinematics of the arm in JAX for a given base position (the base is not rotated)."""
+  """Forward kinematics of the arm in JAX for a base at `base_pos` turned by `base_yaw` about world z."""
 
-  def __init__(self, base_pos):
+  def __init__(self, base_pos, base_yaw: float = 0.0):
     self.base_pos = jnp.asarray(base_pos, jnp.float32)
+    self.base_rot = rotations.rotz(jnp.float32(base_yaw))
     self._link = [_transform(LINK_POS[i], LINK_QUAT[i]) for i in range(7)]
     hand_p, hand_r = _transform(HAND_POS, HAND_QUAT)
     grip_r = rotations.quat_wxyz_to_mat(jnp.asarray(GRIPPER_QUAT))
@@ -212,7 +226,7 @@ class Kinematics:
     """(7,) joint angles -> dict of site position (3,), site rotation (3, 3), hand rotation (3, 3),
     and the site Jacobian (6, 7) in the world frame (linear rows first)."""
     p = self.base_pos
-    r = jnp.eye(3, dtype=jnp.float32)
+    r = self.base_rot
     axes, origins = [], []
     for i in range(7):
       lp, lr = self._link[i]

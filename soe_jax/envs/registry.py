@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import ml_collections
 
-from soe_jax.envs import can, lift, manipulation, square
+from soe_jax.envs import can, controller, lift, manipulation, square, transport
 from soe_jax.registry import Registry
 
 TASKS: Registry[manipulation.ManipulationEnv] = Registry("task")
@@ -13,8 +13,19 @@ env_names = TASKS.names
 
 
 def observation_size(name: str) -> int:
-  """The policy's observation size for task `name` (19 for lift, 23 for can and square)."""
-  return manipulation.policy_obs_size(TASKS.factory(name).object_dim)
+  """The policy's observation size for task `name` (19 for lift, 23 for can and square, 59 for transport)."""
+  factory = TASKS.factory(name)
+  return manipulation.policy_obs_size(factory.object_dim, len(factory.bases))
+
+
+def action_size(name: str, action_mode: str) -> int:
+  """The action size of task `name` in `action_mode`: 10 (absolute) or 7 (delta) per robot."""
+  return controller.action_size(action_mode) * len(TASKS.factory(name).bases)
+
+
+def image_keys(name: str) -> tuple[str, ...]:
+  """The camera images task `name` draws with obs_mode="image" (robomimic's keys)."""
+  return tuple(f"{c}_image" for c in TASKS.factory(name).image_cameras)
 
 
 def make_env(name: str, config: ml_collections.ConfigDict | None = None, **overrides) -> manipulation.ManipulationEnv:
@@ -33,3 +44,4 @@ def env_from_config(env_config: ml_collections.ConfigDict) -> manipulation.Manip
 register_env("lift", lift.Lift)
 register_env("can", can.Can)
 register_env("square", square.Square)
+register_env("transport", transport.Transport)

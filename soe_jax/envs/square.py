@@ -32,7 +32,7 @@ OBJECT_QPOS = 9
 
 class Square(manipulation.ManipulationEnv):
   name = "square"
-  base_pos = (-0.56, 0.0, 0.912)
+  bases = (((-0.56, 0.0, 0.912), 0.0),)
   object_dim = 14
   mjx_contacts = 64  # the nut's boxes on the peg and the table: up to 28 in the demonstrations
   mjx_constraints = 384
@@ -74,9 +74,10 @@ class Square(manipulation.ManipulationEnv):
     yaw = jax.random.uniform(key_yaw, (), maxval=2 * jnp.pi)
     return manipulation.yaw_free_qpos(jnp.concatenate([xy, jnp.array([TABLE_TOP + 0.02 + 0.05])]), yaw)
 
-  def _object_obs(self, qpos, eef_pos, hand_rot, hand_quat):
+  def _object_obs(self, qpos, arms):
+    arm = arms[0]
     pos, quat = manipulation.free_body_pose(qpos, OBJECT_QPOS)
-    rel_pos, rel_quat = manipulation.pose_in_eef(pos, quat, eef_pos, hand_rot, hand_quat)
+    rel_pos, rel_quat = manipulation.pose_in_eef(pos, quat, arm.eef_pos, arm.hand_rot, arm.hand_quat)
     return jnp.concatenate([pos, rotations.wxyz_to_xyzw(quat), rel_pos, rel_quat])
 
   def _success(self, qpos, eef_pos):

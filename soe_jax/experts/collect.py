@@ -14,11 +14,14 @@ from soe_jax.envs import manipulation
 from soe_jax.experts import registry as expert_registry
 from soe_jax.experts import script
 
-RECORDED_KEYS = manipulation.POLICY_OBS_KEYS + ("robot0_joint_pos",)
+
+def recorded_keys(env: manipulation.ManipulationEnv) -> tuple[str, ...]:
+  """The observations a demonstration keeps: the policy's, and each robot's joint positions."""
+  return env.policy_obs_keys + tuple(f"robot{k}_joint_pos" for k in range(env.num_robots))
 
 
 @functools.lru_cache(maxsize=8)
-def _chunk_fn(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, length: int):
+def _chunk_fn(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert | script.BimanualExpert, length: int):
   """One compiled chunk of `length` control steps of the batched environment and demonstrator."""
   step = jax.vmap(env.step)
   act = jax.vmap(expert.act)
@@ -31,9 +34,9 @@ def _chunk_fn(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, 
       nxt = step(state, action)
       success = nxt.metrics["success"] > 0
       record = (
-        {k: state.obs[k] for k in RECORDED_KEYS},
+        {k: state.obs[k] for k in recorded_keys(env)},
         action,
-        {k: nxt.obs[k] for k in RECORDED_KEYS},
+        {k: nxt.obs[k] for k in recorded_keys(env)},
         env.physics.sim_state(state.pipeline_state),
       )
       ep_len = jnp.where(done, ep_len, ep_len + 1)
@@ -46,7 +49,7 @@ def _chunk_fn(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, 
 
 def run_demos(
   env: manipulation.ManipulationEnv,
-  expert: script.ScriptedExpert,
+  expert: script.ScriptedExpert | script.BimanualExpert,
   keys: jax.Array,
   chunk: int = 50,
   progress: bool = True,
@@ -54,7 +57,7 @@ def run_demos(
   """Demonstrations from the start states of `keys` (N, 2), each until success or the episode length.
 
   Returns numpy arrays: `obs` {key: (N, T, d)} before each action and `next_obs` after it, `actions`
-  (N, T, 10), `states` (N, T, 1 + nq + nv) float64 the simulator state [time, qpos, qvel] before each
+  (N, T, 10 per robot), `states` (N, T, 1 + nq + nv) float64 the simulator state [time, qpos, qvel] before each
   action, `length` (N,) actions taken up to and including the successful step (the episode length if
   none), `success` (N,). Steps after an episode's end are padding.
   """
@@ -79,7 +82,7 @@ def run_demos(
   bar.refresh()  # draw the full bar before it goes (an update may fall inside tqdm's redraw interval)
   bar.close()
   cat = lambda xs: np.concatenate(xs, 0).swapaxes(0, 1)[:, : env.episode_length]
-  obs, next_obs = ({k: cat([r[i][k] for r in records]) for k in RECORDED_KEYS} for i in (0, 2))
+  obs, next_obs = ({k: cat([r[i][k] for r in records]) for k in recorded_keys(env)} for i in (0, 2))
   states = env.physics.sim_state_float64(cat([r[3] for r in records]))
   done, length = jax.device_get(carry[2:])
   return dict(

@@ -7,12 +7,16 @@ phase left it to the target along a minimum-jerk profile, so motion is smooth; t
 the end effector has arrived (or a timeout passes). Per-episode randomness (speed, heights, offsets,
 waiting times) and a small smooth (AR(1)) positional noise give human-like variety.
 
+A phase may also wait for the scene (`ready`, read every step): a two-arm task runs one script per arm
+(`BimanualExpert`), and an arm's phase that needs the other arm (a handover) waits until the
+observation shows it has done its part.
+
 An expert can also start mid-episode: `init(obs, key, resume=True)` asks the task's `resume(obs)` which
 phase the scene is in (for example: holding the object, so carry on lifting) and plans from the
 current end-effector pose. Steering's scripted chooser and the `expert` strategy use this.
 
-The action is the 10-d absolute pose: position, rotation-6d of the top-down frame at the commanded
-yaw, gripper.
+The action is the 10-d absolute pose of the script's robot (`robot`, its `robot<k>_` observations):
+position, rotation-6d of the top-down frame at the commanded yaw, gripper.
 """
 
 from __future__ import annotations
@@ -64,8 +68,8 @@ def topdown_rot(yaw: jax.Array) -> jax.Array:
   return jnp.stack([x, y, z], axis=1)
 
 
-def site_yaw(obs: dict) -> jax.Array:
-  r = obs["robot0_eef_rot"].reshape(3, 3)
+def site_yaw(obs: dict, robot: int = 0) -> jax.Array:
+  r = obs[f"robot{robot}_eef_rot"].reshape(3, 3)
   return jnp.arctan2(r[1, 0], r[0, 0])
 
 
@@ -86,18 +90,21 @@ def min_jerk(tau: jax.Array) -> jax.Array:
 @dataclasses.dataclass(frozen=True)
 class ScriptedExpert:
   """`plans[i](obs, params, cmd_pos, cmd_yaw) -> Target`; `sample_params(key) -> dict`;
-  `resume(obs) -> phase index` to start from in the scene `obs` shows."""
+  `resume(obs) -> phase index` to start from in the scene `obs` shows; `ready` (optional, one per
+  phase): `ready[i](obs, params) -> bool`, phase i ends only once it holds; `robot`: whose arm."""
 
   plans: Sequence[Callable[..., Target]]
   sample_params: Callable[[jax.Array], dict]
   resume: Callable[[dict], jax.Array]
+  ready: Sequence[Callable[[dict, dict], jax.Array]] | None = None
+  robot: int = 0
   noise_std: float = 0.0004  # m, innovation of the AR(1) positional noise
   noise_decay: float = 0.9
 
   def init(self, obs: dict, key: jax.Array, resume: bool = False) -> ExpertState:
     """Start at the first phase, or with `resume` at the phase `self.resume(obs)` names."""
     key_params, key = jax.random.split(key)
-    pos, yaw = obs["robot0_eef_pos"], site_yaw(obs)
+    pos, yaw = obs[f"robot{self.robot}_eef_pos"], site_yaw(obs, self.robot)
     zero_t = Target(pos, yaw, jnp.array(-1.0), jnp.array(0.01), jnp.array(0), jnp.array(0.01))
     phase = jnp.asarray(self.resume(obs), jnp.int32) if resume else jnp.array(0)
     return ExpertState(
@@ -134,8 +141,9 @@ class ScriptedExpert:
 
     elapsed = es.t + 1
     scheduled = elapsed >= duration + target.hold
-    arrived = jnp.linalg.norm(obs["robot0_eef_pos"] - target.pos) < target.tol
-    advance = scheduled & (arrived | (elapsed >= duration + target.hold + TIMEOUT)) & (es.phase < last)
+    arrived = jnp.linalg.norm(obs[f"robot{self.robot}_eef_pos"] - target.pos) < target.tol
+    ready = jax.lax.switch(es.phase, list(self.ready), obs, es.params) if self.ready else True
+    advance = scheduled & (arrived | (elapsed >= duration + target.hold + TIMEOUT)) & ready & (es.phase < last)
     nxt = es.replace(
       phase=jnp.where(advance, es.phase + 1, es.phase),
       t=jnp.where(advance, 0, elapsed),
@@ -151,6 +159,27 @@ class ScriptedExpert:
     return action, nxt
 
 
+@dataclasses.dataclass(frozen=True)
+class BimanualExpert:
+  """One script per arm, robot0's first, stepped together: the same `init` / `act` as a
+  `ScriptedExpert`, with the arms' actions concatenated (20 numbers) and a state per arm."""
+
+  arms: tuple[ScriptedExpert, ...]
+
+  def init(self, obs: dict, key: jax.Array, resume: bool = False) -> tuple[ExpertState, ...]:
+    return tuple(arm.init(obs, k, resume) for arm, k in zip(self.arms, jax.random.split(key, len(self.arms))))
+
+  def act(self, es: tuple[ExpertState, ...], obs: dict):
+    """-> (action (10 * arms,), next states)."""
+    actions, states = zip(*(arm.act(s, obs) for arm, s in zip(self.arms, es)))
+    return jnp.concatenate(actions), tuple(states)
+
+
+def always(obs: dict, params: dict) -> jax.Array:
+  """A phase that waits for nothing in the scene."""
+  return jnp.array(True)
+
+
 def uniform(key, lo, hi, shape=()):
   return jax.random.uniform(key, shape, minval=lo, maxval=hi)
 
@@ -164,8 +193,8 @@ def near_xy(a: jax.Array, b: jax.Array, radius: float) -> jax.Array:
   return jnp.linalg.norm(a[:2] - b[:2]) < radius
 
 
-def gripping(obs: dict, grip_pos: jax.Array, half_width: float, z_tol: float = 0.02) -> jax.Array:
-  """The fingers are closed on an object part of half-width `half_width` centred at `grip_pos`."""
-  eef = obs["robot0_eef_pos"]
-  closed = obs["robot0_gripper_qpos"][0] < half_width + 0.004
+def gripping(obs: dict, grip_pos: jax.Array, half_width: float, z_tol: float = 0.02, robot: int = 0) -> jax.Array:
+  """Robot `robot`'s fingers are closed on an object part of half-width `half_width` centred at `grip_pos`."""
+  eef = obs[f"robot{robot}_eef_pos"]
+  closed = obs[f"robot{robot}_gripper_qpos"][0] < half_width + 0.004
   return near_xy(eef, grip_pos, 0.015) & (jnp.abs(eef[2] - grip_pos[2]) < z_tol) & closed

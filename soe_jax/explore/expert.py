@@ -13,7 +13,9 @@ from soe_jax.experts import script
 from soe_jax.types import Strategy
 
 
-def demonstrate(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert, env_state, num_steps: int):
+def demonstrate(
+  env: manipulation.ManipulationEnv, expert: script.ScriptedExpert | script.BimanualExpert, env_state, num_steps: int
+):
   """The demonstrator's next `num_steps` actions (B, num_steps, A) from each environment's current
   state, resumed at the phase the scene shows, simulated on a copy of the state. Its random
   parameters come from the episode's reset key (as in the demonstrations), so they stay fixed."""
@@ -39,7 +41,7 @@ def task_env(strategy: str, env: manipulation.ManipulationEnv | None) -> manipul
 @dataclasses.dataclass(frozen=True)
 class Expert(Strategy):
   env: manipulation.ManipulationEnv = dataclasses.field(default=None, metadata=dict(setting=False))
-  expert: script.ScriptedExpert = dataclasses.field(default=None, metadata=dict(setting=False))
+  expert: script.ScriptedExpert | script.BimanualExpert = dataclasses.field(default=None, metadata=dict(setting=False))
   name = "expert"
 
   @classmethod

@@ -21,25 +21,36 @@ from soe_jax.types import Chooser, Strategy
 
 @dataclasses.dataclass(frozen=True)
 class ScriptedChooser:
-  """DESIGN.md's oracle chooser: the proposal whose end-effector path (its commanded positions) is
-  closest in mean L2 distance to the scripted demonstrator's next positions from the current state."""
+  """DESIGN.md's oracle chooser: the proposal whose end-effector paths (its commanded positions, every
+  arm's) are closest in mean L2 distance to the scripted demonstrator's next positions from the
+  current state."""
 
   env: manipulation.ManipulationEnv
-  expert: script.ScriptedExpert
+  expert: script.ScriptedExpert | script.BimanualExpert
 
   def __call__(self, candidates: jax.Array, env_state, key):
     """candidates (B, C, Ta, A) raw -> (index (B,), distance (B,))."""
     reference = expert_strategy.demonstrate(self.env, self.expert, env_state, candidates.shape[2])
-    dist = jnp.mean(jnp.linalg.norm(candidates[..., :3] - reference[:, None, :, :3], axis=-1), axis=-1)
+    positions = lambda a: manipulation.action_positions(a, self.env.num_robots)
+    gap = jnp.linalg.norm(positions(candidates) - positions(reference)[:, None], axis=-1)  # (B, C, Ta, R)
+    dist = jnp.mean(gap, axis=(-2, -1))
     return jnp.argmin(dist, axis=1), jnp.min(dist, axis=1)
 
 
 def candidates(
-  agent, obs_history, key, dims: tuple[int, ...], alpha: float, num_proposals: int, num_choices: int
+  agent,
+  obs_history,
+  key,
+  dims: tuple[int, ...],
+  alpha: float,
+  num_proposals: int,
+  num_choices: int,
+  num_robots: int = 1,
 ) -> tuple[jax.Array, jax.Array]:
   """For each latent dimension in `dims`: `num_proposals` latents varying only that dimension around mu,
   decoded to executed chunks, and `num_choices` of them picked by farthest point sampling over their
-  end-effector paths. -> (candidates (B, len(dims) * num_choices, Ta, A) raw, dim of each candidate)."""
+  end-effector paths (every robot's). -> (candidates (B, len(dims) * num_choices, Ta, A) raw, dim of
+  each candidate)."""
   mu, log_std = agent.latent(obs_history)
   b, d = mu.shape
   chosen = []
@@ -50,7 +61,8 @@ def candidates(
     )
     chunks = agent.executed(agent.decode_chunk(z.reshape(b * num_proposals, d), key_head))
     chunks = chunks.reshape((b, num_proposals) + chunks.shape[1:])
-    idx = jax.vmap(lambda c: steering.farthest_point_sampling(c[..., :3], num_choices))(chunks)
+    paths = manipulation.action_positions(chunks, num_robots)
+    idx = jax.vmap(lambda p: steering.farthest_point_sampling(p, num_choices))(paths)
     chosen.append(jnp.take_along_axis(chunks, idx[:, :, None, None], axis=1))
   dim_of = jnp.repeat(jnp.asarray(dims, jnp.int32), num_choices)
   return jnp.concatenate(chosen, axis=1), dim_of
@@ -69,13 +81,15 @@ class SoeSteer(Strategy):
   max_dims: int = 0
   snr_windows: int = 2048
   chooser: Chooser = dataclasses.field(default=None, metadata=dict(setting=False))
+  num_robots: int = dataclasses.field(default=1, metadata=dict(setting=False))  # the task's arms
   dims: tuple[int, ...] = dataclasses.field(default=(), metadata=dict(setting=False))
   name = "soe_steer"
 
   @classmethod
   def create(cls, env=None, **settings):
     env = expert_strategy.task_env(cls.name, env)
-    return cls(chooser=ScriptedChooser(env, expert_registry.make_expert(env.name)), **settings)
+    chooser = ScriptedChooser(env, expert_registry.make_expert(env.name))
+    return cls(chooser=chooser, num_robots=env.num_robots, **settings)
 
   def snr(self, agent, buffer, key) -> jax.Array:
     """(d,) SNR in dB of the agent's latent dimensions over the buffer's data."""
@@ -87,7 +101,7 @@ class SoeSteer(Strategy):
     return dataclasses.replace(self, dims=dims), dict(snr_db=[round(float(x), 2) for x in snr], steer_dims=list(dims))
 
   def candidates(self, agent, obs_history, key, dims: tuple[int, ...]):
-    return candidates(agent, obs_history, key, dims, self.alpha, self.num_proposals, self.num_choices)
+    return candidates(agent, obs_history, key, dims, self.alpha, self.num_proposals, self.num_choices, self.num_robots)
 
   def __call__(self, agent, obs_history, env_state, key):
     b = agent_lib.batch_size(obs_history)

@@ -35,9 +35,10 @@ def dimension_proposals(
 
 
 def path_distances(paths: jax.Array) -> jax.Array:
-  """paths (P, T, 3) -> (P, P) mean over steps of the L2 distance between positions."""
-  diff = paths[:, None] - paths[None]
-  return jnp.mean(jnp.linalg.norm(diff, axis=-1), axis=-1)
+  """paths (P, T, 3), or (P, T, R, 3) for R robots -> (P, P) mean over steps (and robots) of the L2
+  distance between positions."""
+  dist = jnp.linalg.norm(paths[:, None] - paths[None], axis=-1)
+  return dist.reshape(dist.shape[:2] + (-1,)).mean(-1)
 
 
 def farthest_point_sampling(paths: jax.Array, num: int, first: int = 0) -> jax.Array:

@@ -75,15 +75,17 @@ def fit(
   obs: np.ndarray,
   actions: np.ndarray,
   margin: float = 0.1,
-  identity_action_dims: slice | None = None,
   obs_min_span: np.ndarray | None = None,
+  num_robots: int = 1,
 ) -> Normalizer:
   """From all demonstration frames: obs (N, D), actions (N, A). `obs_min_span` (D,): the smallest span
-  each observation dimension maps to [-1, 1] (none by default). `identity_action_dims` defaults to
-  everything after the 3 position dims (rotation-6d and gripper of the absolute action)."""
+  each observation dimension maps to [-1, 1] (none by default). The actions are `num_robots` equal
+  blocks, each a position (its first 3 dims, normalised) and then rotation and gripper (kept as they
+  are)."""
   floor = None if obs_min_span is None else np.asarray(obs_min_span, np.float64)
   obs_scale, obs_offset = _limits(np.asarray(obs, np.float64), margin, floor)
   act_scale, act_offset = _limits(np.asarray(actions, np.float64), margin)
-  ident = identity_action_dims if identity_action_dims is not None else slice(3, None)
+  block = act_scale.shape[0] // num_robots
+  ident = np.arange(act_scale.shape[0]) % block >= 3
   act_scale[ident], act_offset[ident] = 1.0, 0.0
   return Normalizer(jnp.asarray(obs_scale), jnp.asarray(obs_offset), jnp.asarray(act_scale), jnp.asarray(act_offset))

@@ -162,8 +162,8 @@ class SteeringSession:
     episodes = hdf5.read_episodes(path)[0] if os.path.exists(path) else []
     episodes.append(
       dict(
-        obs=manipulation.split_policy_obs(np.stack(self.episode["obs"])),
-        next_obs=manipulation.split_policy_obs(np.stack(self.episode["next_obs"])),
+        obs=manipulation.split_policy_obs(np.stack(self.episode["obs"]), self.env.num_robots),
+        next_obs=manipulation.split_policy_obs(np.stack(self.episode["next_obs"]), self.env.num_robots),
         actions=np.stack(self.episode["actions"]),
         states=np.stack(self.episode["states"]),
         success=self.success,

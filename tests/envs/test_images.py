@@ -12,7 +12,15 @@ from soe_jax.experts import registry as expert_registry
 from tests.test_render import needs_egl
 
 pytestmark = needs_egl
-IMAGE_KEYS = ("agentview_image", "robot0_eye_in_hand_image")
+# robomimic's image keys: transport's shoulder and wrist cameras, the agent view and wrist camera otherwise.
+IMAGE_KEYS = {
+  "transport": (
+    "shouldercamera0_image",
+    "shouldercamera1_image",
+    "robot0_eye_in_hand_image",
+    "robot1_eye_in_hand_image",
+  )
+}
 
 
 @pytest.mark.parametrize("task", [t if t == "lift" else pytest.param(t, marks=pytest.mark.slow) for t in env_names()])
@@ -20,7 +28,8 @@ def test_image_observations_have_robomimics_keys_shapes_and_dtype(task):
   env = make_env(task, obs_mode="image", backend="mujoco")
   reset = jax.jit(jax.vmap(env.reset))
   a, b = reset(jax.random.split(jax.random.PRNGKey(3), 2)), reset(jax.random.split(jax.random.PRNGKey(3), 2))
-  for key in IMAGE_KEYS:
+  assert env.image_keys == IMAGE_KEYS.get(task, ("agentview_image", "robot0_eye_in_hand_image"))
+  for key in env.image_keys:
     assert a.obs[key].shape == (2, 84, 84, 3) and a.obs[key].dtype == np.uint8
     np.testing.assert_array_equal(a.obs[key], b.obs[key])  # the same key, the same first image
     assert not np.array_equal(a.obs[key][0], a.obs[key][1])  # other start states, other pictures

@@ -7,9 +7,9 @@ import pytest
 
 from configs import common
 from soe_jax import validation
-from soe_jax.envs import agreement, env_names, make_env, physics, wrap_env
+from soe_jax.envs import agreement, make_env, physics, wrap_env
 from soe_jax.experts import collect
-from soe_jax.experts.registry import make_expert
+from soe_jax.experts.registry import expert_names, make_expert
 
 
 def _warp():
@@ -56,7 +56,7 @@ def test_settings_replace_solver_options_for_mjx_alone():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("task", env_names())
+@pytest.mark.parametrize("task", expert_names())
 def test_warp_buffers_cover_the_demonstrators_contacts(task):
   """Warp preallocates contacts and constraint rows per environment: the task's sizes cover the most
   any state of its scripted demonstrations has (in the MJX scene's settings), with a margin of 1.5."""

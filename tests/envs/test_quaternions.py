@@ -10,9 +10,9 @@ import pytest
 from configs import common
 from soe_jax import checkpoint, rollout
 from soe_jax.data import hdf5
-from soe_jax.envs import env_names, policy_obs, rotations
+from soe_jax.envs import policy_obs, rotations
 from soe_jax.experts import collect
-from soe_jax.experts.registry import make_expert
+from soe_jax.experts.registry import expert_names, make_expert
 from soe_jax.explore import registry
 from soe_jax.policies import normalizer as normalizer_lib
 from soe_jax.policies.agent import Agent
@@ -52,7 +52,10 @@ def _demos(task, jitted):
   return env, collect.run_demos(env, make_expert(task), keys, progress=False)
 
 
-@pytest.mark.parametrize("task", env_names())
+# transport's 700-step demonstrations take ~20 s: slow.
+@pytest.mark.parametrize(
+  "task", [pytest.param(t, marks=pytest.mark.slow) if t == "transport" else t for t in expert_names()]
+)
 def test_quaternions_are_continuous_along_scripted_episodes(task, jitted_env):
   env, batch = _demos(task, jitted_env)
   obs = np.asarray(policy_obs(batch["obs"], xp=np))
@@ -64,7 +67,9 @@ def test_quaternions_are_continuous_along_scripted_episodes(task, jitted_env):
   assert hand[:, : int(batch["length"].min())].min() > 0.5
 
 
-@pytest.mark.parametrize("task", [t if t == "lift" else pytest.param(t, marks=pytest.mark.slow) for t in env_names()])
+@pytest.mark.parametrize(
+  "task", [t if t == "lift" else pytest.param(t, marks=pytest.mark.slow) for t in expert_names()]
+)
 def test_quaternions_are_continuous_along_policy_rollouts(task, jitted_env, task_env):
   env = task_env(task, episode_length=20)  # lift's: the rollout tests' environment and programs
   config = common.apply_presets(common.base_config(task, 4), "smoke")

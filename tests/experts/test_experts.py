@@ -4,7 +4,7 @@ import jax
 import numpy as np
 import pytest
 
-from soe_jax.experts import collect
+from soe_jax.experts import collect, transport
 from soe_jax.experts.registry import EXPERTS, make_expert
 
 
@@ -30,8 +30,8 @@ def test_lift_demonstrations_succeed_and_vary(jitted_env):
 
 
 def test_unknown_expert_lists_known_ones():
-  with pytest.raises(ValueError, match="known scripted demonstrators: can, lift, square"):
-    make_expert("transport")
+  with pytest.raises(ValueError, match="known scripted demonstrators: can, lift, square, transport"):
+    make_expert("transpot")
 
 
 @pytest.mark.slow
@@ -40,3 +40,37 @@ def test_demonstrators_succeed(task, jitted_env):
   env, _, _ = jitted_env(task)
   batch = collect.run_demos(env, make_expert(task), jax.random.split(jax.random.PRNGKey(0), 16), progress=False)
   assert batch["success"].mean() >= 0.9
+
+
+def _run(env, expert, state, es, steps):
+  """`steps` control steps of the batch under the demonstrator -> (state, expert state, success so far)."""
+
+  def body(carry, _):
+    state, es, done = carry
+    action, es = jax.vmap(expert.act)(es, state.obs)
+    state = jax.vmap(env.step)(state, action)
+    return (state, es, done | (state.metrics["success"] > 0)), None
+
+  done = jax.numpy.zeros(state.obs["object"].shape[0], bool)
+  return jax.jit(lambda c: jax.lax.scan(body, c, None, length=steps)[0])((state, es, done))
+
+
+@pytest.mark.slow
+def test_transport_demonstrator_resumes_mid_episode(jitted_env):
+  """Stopped part way (robot0 between the lid and the hammer, or at the handover), a new demonstrator
+  started with `resume` from the scene alone picks the phase each arm is in and finishes the task."""
+  env, _, _ = jitted_env("transport")
+  expert = make_expert("transport")
+  keys = jax.random.split(jax.random.PRNGKey(5), 4)
+  state = jax.vmap(env.reset)(keys)
+  es = jax.vmap(expert.init)(state.obs, jax.vmap(lambda k: jax.random.fold_in(k, 1))(keys))
+  for steps in (140, 140):  # t = 140: the lid's part; t = 280: about the handover
+    state, es, done = _run(env, expert, state, es, steps)
+    assert not done.any()
+    resumed = jax.vmap(lambda o, k: expert.init(o, k, resume=True))(
+      state.obs, jax.random.split(jax.random.PRNGKey(9), 4)
+    )
+    np.testing.assert_array_equal(resumed[0].phase, jax.vmap(transport.resume0)(state.obs))
+    assert (resumed[0].phase > 0).all() and (resumed[1].phase > 0).all()  # not from the start
+    _, _, finished = _run(env, expert, state, resumed, env.episode_length - 280)
+    assert finished.all(), (steps, resumed[0].phase, resumed[1].phase)

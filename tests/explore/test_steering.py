@@ -58,3 +58,16 @@ def test_dimension_proposals_vary_only_that_dimension():
   np.testing.assert_array_equal(z[:, 0], 0.5)
   np.testing.assert_array_equal(z[:, 2], 2.0)
   np.testing.assert_allclose([float(z[:, 1].mean()), float(z[:, 1].std())], [-1.0, 0.4], atol=0.02)
+
+
+def test_two_robots_paths_are_compared_arm_by_arm():
+  """(P, T, R, 3) paths: the distance is each arm's mean distance, averaged over the arms; an action's
+  positions are the first 3 numbers of each robot's block."""
+  from soe_jax.envs import manipulation
+
+  rng = np.random.default_rng(0)
+  actions = jnp.asarray(rng.normal(size=(5, 8, 20)), jnp.float32)
+  paths = manipulation.action_positions(actions, 2)
+  np.testing.assert_array_equal(paths[:, :, 1], actions[:, :, 10:13])
+  per_arm = [steering.path_distances(paths[:, :, k]) for k in range(2)]
+  np.testing.assert_allclose(steering.path_distances(paths), (per_arm[0] + per_arm[1]) / 2, rtol=1e-5)

@@ -28,6 +28,19 @@ def test_limits_with_margin_and_identity_action_dims():
   np.testing.assert_allclose(np.asarray(norm.unnormalize_actions(a)), actions, atol=1e-5)
 
 
+def test_two_robots_positions_are_normalised_in_each_block():
+  """Transport's actions are two blocks of 10: each block's position is scaled, the rest kept."""
+  rng = np.random.default_rng(1)
+  actions = rng.uniform(-0.5, 0.5, size=(500, 20))
+  actions[:, 10:13] = rng.uniform(0.8, 1.2, size=(500, 3))  # robot1's positions, beyond [-1, 1] raw
+  norm = normalizer.fit(np.zeros((500, 2)), actions, margin=0.1, num_robots=2)
+  a = np.asarray(norm.normalize_actions(actions))
+  for block in (slice(0, 3), slice(10, 13)):
+    np.testing.assert_allclose(np.abs(a[:, block]).max(0), 1 / 1.2, rtol=1e-3)
+  kept = np.r_[3:10, 13:20]
+  np.testing.assert_allclose(a[:, kept], actions[:, kept], atol=1e-6)
+
+
 def test_an_observation_far_outside_the_demonstrations_is_not_clipped():
   obs, _, norm = _fit()
   far = obs[:1].copy()
