@@ -7,11 +7,12 @@ For each run (a workdir of `main` or of a campaign), the episodes round `--round
 - its length in control steps;
 - the commanded grip-site position's step |a_t - a_(t-1)| in mm, at decision boundaries (t a multiple
   of `policy.n_action_steps`: a new action chunk starts there) and inside chunks, each averaged over
-  the episode;
+  the episode (and over the arms, on a two-arm task);
 - the object's tilt: the largest angle between its up axis and the up axis it started with, and
-  whether that passed `TIPPED_DEG` (tipped);
-- its grasps: how often the gripper command crosses from open to closed, and whether more than once
-  (re-grasped).
+  whether that passed `TIPPED_DEG` (tipped); the object is the first in the task's `object` vector
+  (Transport: the hammer, which the arms turn on purpose);
+- its grasps: how often the gripper command crosses from open to closed (on a two-arm task, the most
+  of either arm), and whether more than once (re-grasped).
 Printed as a table with a row per run (episodes pooled) and a row of the run's demonstrations; `--out`
 writes the record (command, commit, machine, and per run its method, seed and per-episode numbers;
 the runs' configs are in their workdirs) for `results/`, where `python -m soe_jax.results` tables it.
@@ -47,17 +48,17 @@ def _up_axis(quat_xyzw: np.ndarray) -> np.ndarray:
   return np.stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)], axis=-1)
 
 
-def episode_measures(ep: dict, n_action_steps: int, quat_slice: slice) -> dict:
-  """One episode ({"actions": (T, 10) absolute, "obs": {"object": (T, D)}}) -> its MEASURES."""
-  actions = np.asarray(ep["actions"], np.float64)
-  steps = 1000 * np.linalg.norm(np.diff(actions[:, :3], axis=0), axis=-1)  # steps[t - 1]: a_t - a_(t-1)
+def episode_measures(ep: dict, n_action_steps: int, quat_slice: slice, num_robots: int = 1) -> dict:
+  """One episode ({"actions": (T, 10 * num_robots) absolute, "obs": {"object": (T, D)}}) -> its MEASURES."""
+  actions = np.asarray(ep["actions"], np.float64).reshape(len(ep["actions"]), num_robots, -1)  # (T, R, 10)
+  steps = 1000 * np.linalg.norm(np.diff(actions[..., :3], axis=0), axis=-1).mean(-1)  # steps[t - 1]: a_t - a_(t-1)
   t = np.arange(1, len(actions))
   boundary = t % n_action_steps == 0
   up = _up_axis(np.asarray(ep["obs"]["object"], np.float64)[:, quat_slice])
   up /= np.linalg.norm(up, axis=-1, keepdims=True)
   tilt = np.degrees(np.arccos(np.clip(up @ up[0], -1.0, 1.0)))
-  closed = actions[:, -1] > 0
-  grasps = int(closed[0]) + int((closed[1:] & ~closed[:-1]).sum())
+  closed = actions[..., -1] > 0  # (T, R)
+  grasps = int((closed[0] + (closed[1:] & ~closed[:-1]).sum(0)).max())
   mean = lambda x: round(float(x.mean()), 2) if len(x) else None  # (None: JSON has no NaN)
   return dict(
     length=len(actions),
@@ -84,6 +85,7 @@ def run_measures(workdir: str, r: int) -> dict:
   """{workdir, method, task, seed, round, kept: {measure: per episode}, demos: {measure: per episode}}."""
   from soe_jax import rundir
   from soe_jax.data import hdf5
+  from soe_jax.envs import registry
   from soe_jax.errors import UserError
 
   run = rundir.RunDir.open(workdir)
@@ -96,7 +98,8 @@ def run_measures(workdir: str, r: int) -> dict:
   if not os.path.exists(path):
     raise UserError(f"{workdir}: round {r} kept nothing or has not explored yet ({path} is missing)")
   quats, ta = _quat_slice(config.env.task), int(config.policy.n_action_steps)
-  table = lambda eps: {k: [m[k] for m in (episode_measures(ep, ta, quats) for ep in eps)] for k in MEASURES}
+  arms = registry.num_robots(config.env.task)
+  table = lambda eps: {k: [m[k] for m in (episode_measures(ep, ta, quats, arms) for ep in eps)] for k in MEASURES}
   return dict(
     workdir=workdir,
     method=config.method,

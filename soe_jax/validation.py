@@ -129,8 +129,8 @@ def _demonstration_file(config) -> list[str]:
     return [str(e)]
   if len(episodes) < config.data.num_demos:
     return [f"{path} holds {len(episodes)} episodes; data.num_demos asks for {config.data.num_demos}"]
-  factory = env_registry.TASKS.factory(config.env.task)
-  sizes = manipulation.policy_obs_sizes(factory.object_dim, len(factory.bases))
+  task = config.env.task
+  sizes = manipulation.policy_obs_sizes(env_registry.TASKS.factory(task).object_dim, env_registry.num_robots(task))
   action = env_registry.action_size(config.env.task, config.env.action_mode)
   for i, ep in enumerate(episodes[: config.data.num_demos]):
     for key, size in sizes.items():

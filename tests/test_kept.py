@@ -35,6 +35,15 @@ def test_an_episodes_steps_tilt_and_grasps():
   assert m["tilt_deg"] == pytest.approx(40.0, abs=1e-3)
 
 
+def test_a_two_arm_episode_averages_the_arms_steps_and_counts_the_busier_grippers_grasps():
+  one = _episode([2.0] * 7 + [20.0] + [2.0] * 3, 0.0, [-1] * 6 + [1] * 6)  # robot0: grasps once
+  other = _episode([4.0] * 11, 0.0, [-1, 1, -1, 1] * 3)  # robot1: grasps 6 times, steps 4 mm
+  both = dict(one, actions=np.concatenate([one["actions"], other["actions"]], -1))
+  m = kept.episode_measures(both, 8, slice(3, 7), num_robots=2)
+  assert m["grasps"] == 6
+  assert m["step_boundary_mm"] == pytest.approx(12.0, abs=1e-3) and m["step_inside_mm"] == pytest.approx(3.0, abs=1e-3)
+
+
 def test_a_runs_kept_episodes_are_tabled_beside_its_demonstrations(tmp_path):
   config = lift_config.get_config("smoke,soe")
   config.rounds.round0_dir = str(tmp_path / "round0")

@@ -1,6 +1,7 @@
 """Transport, two arms, through the whole experiment (`configs/transport.py:smoke` with the
 demonstrator as the exploration strategy, so that exploration keeps episodes): both robots' keys in
-the kept episodes, the re-fit on them, a checkpoint that acts with 20 numbers, and the export."""
+the kept episodes, the re-fit on them, a checkpoint that acts with 20 numbers, the steering page's
+paths for both arms, and the export."""
 
 import json
 import os
@@ -42,6 +43,16 @@ def test_a_two_arm_round_keeps_refits_acts_and_exports(tmp_path):
   hist = agent_lib.initial_history(manipulation.policy_obs(state.obs), 2)
   actions = np.asarray(loaded.agent.act(hist, jax.random.PRNGKey(1)))
   assert actions.shape == (1, config.policy.n_action_steps, 20) and np.isfinite(actions).all()
+  from soe_jax.steer import session
+
+  steering = session.SteeringSession(workdir)
+  try:
+    view = steering.proposals(steering.dims[0])
+    assert len(view["paths"]) == 2 and all(len(p) == 1 for p in view["paths"])  # each arm's hand, at the start
+    assert [len(p["paths"]) for p in view["proposals"]] == [2] * steering.steer.num_choices
+    assert all(len(q) == config.policy.n_action_steps for p in view["proposals"] for q in p["paths"])
+  finally:
+    steering.close()
   out = str(tmp_path / "data.hdf5")
   export.export(workdir, "robomimic", out)
   with h5py.File(out) as f:

@@ -12,15 +12,19 @@ register_env = TASKS.register
 env_names = TASKS.names
 
 
+def num_robots(name: str) -> int:
+  """How many arms task `name` has (2 for transport, 1 for the others)."""
+  return len(TASKS.factory(name).bases)
+
+
 def observation_size(name: str) -> int:
   """The policy's observation size for task `name` (19 for lift, 23 for can and square, 59 for transport)."""
-  factory = TASKS.factory(name)
-  return manipulation.policy_obs_size(factory.object_dim, len(factory.bases))
+  return manipulation.policy_obs_size(TASKS.factory(name).object_dim, num_robots(name))
 
 
 def action_size(name: str, action_mode: str) -> int:
   """The action size of task `name` in `action_mode`: 10 (absolute) or 7 (delta) per robot."""
-  return controller.action_size(action_mode) * len(TASKS.factory(name).bases)
+  return controller.action_size(action_mode) * num_robots(name)
 
 
 def image_keys(name: str) -> tuple[str, ...]:

@@ -46,7 +46,7 @@ PAGE = """<!doctype html>
 <div class="help"><b>How to steer.</b> The policy's latent has a few dimensions that carry signal about the
 scene (their SNR over the demonstrations is above the dashed threshold line); the others carry none and
 are not offered. <b>1.</b> Choose a dimension: a few diverse proposals along it are drawn over the scene,
-each the path the hand would take over the next <span id="chunk"></span> actions (the black path is the
+each the path the hand (each hand, on two arms) would take over the next <span id="chunk"></span> actions (the black path is the
 hand's so far). <b>2.</b> Click a proposal to execute it, then choose again. The episode ends with
 success, at the step limit, or when you press <i>finish</i>. <b>3.</b> <i>Save</i> adds the finished
 episode to the run's data; the next round's fit takes <span id="used"></span> steered episodes
@@ -133,8 +133,8 @@ function render(v) {
   const s = v.last_saved;
   document.getElementById("saved-note").textContent = s === null ? "" : `saved the last episode (${s.success ?
     "success" : "not successful"}): ${s.used ? "the next fit takes it" : "kept on disk, the next fit leaves it out"}`;
-  let svg = line(v.path, "#000", 2);
-  v.proposals.forEach((p, i) => svg += line(p.path, COLORS[i % 8], 3, p.id));
+  let svg = v.paths.map(p => line(p, "#000", 2)).join("");  // one path per arm
+  v.proposals.forEach((p, i) => p.paths.forEach((q, k) => svg += line(q, COLORS[i % 8], 3, k ? "" : p.id)));
   document.getElementById("overlay").innerHTML = svg;
 }
 document.getElementById("frame").onload = () => {  // the page is ready once the scene is drawn

@@ -83,7 +83,7 @@ class SteeringSession:
     self.state = self._reset(jax.random.split(jax.random.PRNGKey(self.seed), 1))
     self.hist = agent_lib.initial_history(self._policy_input(), self.policy.n_obs_steps)
     self.episode = dict(obs=[], next_obs=[], actions=[], states=[])
-    self.eef = [np.asarray(self.state.obs["robot0_eef_pos"][0])]
+    self.eef = [self._hands()]
     self.success = False
     self.finished = False
     self.decision = 0
@@ -134,7 +134,7 @@ class SteeringSession:
       self.state = self._step(self.state, jnp.asarray(action)[None])
       self.hist = agent_lib.push_history(self.hist, self._policy_input())
       self.episode["next_obs"].append(np.asarray(lowdim(self.hist)[0, -1]))
-      self.eef.append(np.asarray(self.state.obs["robot0_eef_pos"][0]))
+      self.eef.append(self._hands())
       if bool(self.state.metrics["success"][0] > 0):
         self.success = True
         break
@@ -190,6 +190,10 @@ class SteeringSession:
       float(self.env.mj_model.cam_fovy[cam]),
     )
 
+  def _hands(self) -> np.ndarray:
+    """Every arm's grip-site position now, (R, 3)."""
+    return np.stack([np.asarray(self.state.obs[f"robot{k}_eef_pos"][0]) for k in range(self.env.num_robots)])
+
   def project(self, points: np.ndarray) -> list[list[float]]:
     """World points (N, 3) -> pixel coordinates in the rendered image (x right, y down)."""
     pos, rot, fovy = self._camera()
@@ -211,7 +215,8 @@ class SteeringSession:
     props = []
     if self.proposal_set is not None:
       dim, cands, token = self.proposal_set
-      props = [dict(id=f"{token}-{i}", path=self.project(c[:, :3])) for i, c in enumerate(cands)]
+      arms = lambda c: np.swapaxes(manipulation.action_positions(c, self.env.num_robots), 0, 1)  # (R, Ta, 3)
+      props = [dict(id=f"{token}-{i}", paths=[self.project(p) for p in arms(c)]) for i, c in enumerate(cands)]
     return dict(
       round=self.round,
       step=len(self.episode["actions"]),
@@ -229,5 +234,5 @@ class SteeringSession:
       used_in_fit=self.used_in_fit,
       chosen_dim=None if self.proposal_set is None else int(self.proposal_set[0]),
       proposals=props,
-      path=self.project(np.stack(self.eef)),
+      paths=[self.project(p) for p in np.swapaxes(np.stack(self.eef), 0, 1)],  # each arm's, robot0 first
     )
