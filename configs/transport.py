@@ -14,7 +14,8 @@ Demonstrations: 20, as for Can and Square. The `cpu` preset fits round 0 for 20k
 twice as wide as the other tasks' (64/128/256): the narrow one's 32-channel first level does not carry
 20 action channels (1,500 steps on the 20 demonstrations: loss 0.87 and the gripper channels'
 noise unpredicted, against 0.076 at 64/128/256; the same narrow net on Square's 10-d actions reaches
-0.088, on Square's actions repeated to 20 channels 0.93). Every preset keeps the 700-step horizon
+0.088, on Square's actions repeated to 20 channels 0.93). Its round 0 (seed 0, 30 min on 2 cores)
+succeeds on 82.5% of 200 evaluation states (results/latent-dims/transport_d16_seed0.json). Every preset keeps the 700-step horizon
 (`smoke` too: the demonstrator needs ~300 steps to reach the handover).
 """
 

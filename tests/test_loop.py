@@ -512,5 +512,8 @@ def test_the_latent_benchmark_explores_as_the_run_did_and_names_the_dimensions_a
   assert result["latent"]["effective_dims"] == sorted((i for i in range(len(snr)) if snr[i] > 0), key=lambda i: -snr[i])
   ran = rundir.read_json(RunDir(workdir, config).phase_path(1, "explore"))
   assert result["explore"]["success"] == ran["success"] and result["explore"]["jerk"] == pytest.approx(ran["jerk"])
+  evaluated = rundir.read_json(RunDir(workdir, config).phase_path(0, "evaluate"))
+  assert result["round0"]["success"] == evaluated["success"]
   assert result["round0_dir"] == os.path.basename(RunDir(workdir, config).round0)
-  assert "effective dimensions (above 0 dB)" in latent.summary_lines(result)[1]
+  assert latent.summary_lines(result)[0].startswith("round 0: ")
+  assert "effective dimensions (above 0 dB)" in latent.summary_lines(result)[2]

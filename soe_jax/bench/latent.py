@@ -3,7 +3,8 @@
   python -m soe_jax.bench latent --config=configs/lift.py:cpu [--windows=4096] [--workdir=DIR]
       [--out=results/<study>/<name>.json]
 
-1. Round 0 as `main` runs it (demonstrations, fit, evaluation; shared with runs of the same settings).
+1. Round 0 as `main` runs it (demonstrations, fit, evaluation; shared with runs of the same settings);
+   its evaluation is part of the record.
 2. The SNR of each latent dimension over `windows` observation histories of the round-0 data (DESIGN.md,
    "Steering"), and the effective dimensions: those above 0 dB.
 3. Round 1's exploration exactly as `main` runs it (the config's strategy, `explore.num_start_states`
@@ -32,8 +33,8 @@ THRESHOLD_DB = 0.0
 def run(
   config: ml_collections.ConfigDict, workdir: str | None = None, windows: int = 4096, progress: bool = True
 ) -> dict:
-  """-> {command, commit, machine, round0_dir, config, latent: {snr_db, effective_dims, windows},
-  explore: round 1's exploration record (per-episode outcomes in `success`)}."""
+  """-> {command, commit, machine, round0_dir, config, round0: round 0's evaluation record, latent: {snr_db,
+  effective_dims, windows}, explore: round 1's exploration record (per-episode outcomes in `success`)}."""
   source = provenance.header()
   validation.check(config)
   if windows < 2:
@@ -51,14 +52,18 @@ def run(
       return dict(snr_db=snr, effective_dims=dims, threshold_db=THRESHOLD_DB, windows=int(windows)), None
 
     latent_rec = exp.phase(0, "latent", latent)[0]
-    return experiment.record(source, exp, latent=latent_rec, explore=exp.explore_phase(1, state, buf)[0])
+    evaluated = exp.evaluate_phase(0, state)  # saved by round0: read back
+    return experiment.record(
+      source, exp, round0=evaluated, latent=latent_rec, explore=exp.explore_phase(1, state, buf)[0]
+    )
 
 
 def summary_lines(result: dict) -> list[str]:
   """The SNR per dimension, the effective dimensions and the exploration's success, as printed."""
-  lat, ex = result["latent"], result["explore"]
+  lat, ex, r0 = result["latent"], result["explore"], result["round0"]
   snr = " ".join(f"{x:+.1f}" for x in lat["snr_db"])
   return [
+    f"round 0: {100 * r0['success_rate']:.1f}% of {r0['num_rollouts']} evaluation episodes",
     f"SNR (dB) per latent dimension over {lat['windows']} windows: {snr}",
     f"effective dimensions (above {lat['threshold_db']:g} dB): {len(lat['effective_dims'])} {lat['effective_dims']}",
     f"exploration ({ex['strategy']}): {100 * ex['success_rate']:.1f}% of {ex['num_rollouts']} episodes "
