@@ -79,3 +79,32 @@ def smoke_run(tmp_path_factory):
   workdir = str(root / "lift-soe")
   summary = loop.run(config, workdir, progress=False)
   return root, config, workdir, summary
+
+
+@pytest.fixture
+def expert_round(tmp_path):
+  """`run(config)`: one round of `config` with the demonstrator as the exploration strategy (it
+  succeeds from every start state, so each is kept) in tmp_path/run, checked to have kept every state
+  and re-fitted on them -> (workdir, RunDir, kept episodes)."""
+
+  def run(config):
+    import json
+    import os
+
+    from configs import common
+    from soe_jax import loop
+    from soe_jax.data import hdf5
+    from soe_jax.rundir import RunDir
+
+    config.explore.strategy = common.strategy_config("expert")
+    config.rounds.num_rounds = 1
+    workdir = str(tmp_path / "run")
+    summary = loop.run(config, workdir, progress=False)
+    run_dir = RunDir.open(workdir)
+    kept, _ = hdf5.read_episodes(run_dir.data_path(1))
+    assert len(kept) == summary["kept"] == config.explore.num_start_states
+    fits = [json.loads(line) for line in open(os.path.join(workdir, "metrics.jsonl")) if '"phase": "fit"' in line]
+    assert [f["num_episodes"] for f in fits] == [config.data.num_demos, config.data.num_demos + len(kept)]
+    return workdir, run_dir, kept
+
+  return run

@@ -2,9 +2,6 @@
 the observation history, the buffer and the fit, kept episodes drawn from their states, the
 checkpoint, and robomimic's image keys in the exported data; and the config checks that go with it."""
 
-import json
-import os
-
 import h5py
 import numpy as np
 import pytest
@@ -46,26 +43,17 @@ def test_image_configs_are_checked_before_anything_runs():
 
 @needs_egl
 @pytest.mark.slow
-def test_an_image_smoke_run_explores_keeps_refits_and_exports_images(tmp_path):
+def test_an_image_smoke_run_explores_keeps_refits_and_exports_images(tmp_path, expert_round):
   import jax
 
-  from soe_jax import checkpoint, loop
-  from soe_jax.data import export, hdf5
+  from soe_jax import checkpoint
+  from soe_jax.data import export
   from soe_jax.envs import registry as env_registry
   from soe_jax.policies import agent as agent_lib
-  from soe_jax.rundir import RunDir
 
   config = lift_config.get_config("smoke,image")
-  config.explore.strategy = lift_config.common.strategy_config("expert")  # keeps every start state
   config.env.episode_length = config.data.max_length = 150
-  config.rounds.num_rounds = 1
-  workdir = str(tmp_path / "run")
-  summary = loop.run(config, workdir, progress=False)
-  run = RunDir.open(workdir)
-  kept, _ = hdf5.read_episodes(run.data_path(1))
-  assert len(kept) == summary["kept"] == config.explore.num_start_states  # the demonstrator succeeds from each
-  fits = [json.loads(line) for line in open(os.path.join(workdir, "metrics.jsonl")) if '"phase": "fit"' in line]
-  assert [f["num_episodes"] for f in fits] == [4, 4 + len(kept)]  # the re-fit trained on them, their images drawn
+  workdir, run, kept = expert_round(config)  # the re-fit drew the kept episodes' images from their states
   loaded = checkpoint.load(run.ckpt_dir(1))
   assert loaded.policy.image_keys == manipulation.IMAGE_KEYS
   env = env_registry.env_from_config(config.env)

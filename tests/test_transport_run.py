@@ -3,40 +3,28 @@ demonstrator as the exploration strategy, so that exploration keeps episodes): b
 the kept episodes, the re-fit on them, a checkpoint that acts with 20 numbers, the steering page's
 paths for both arms, and the export."""
 
-import json
-import os
-
 import h5py
 import jax
 import numpy as np
 import pytest
 
 from configs import transport as transport_config
-from soe_jax import checkpoint, loop
-from soe_jax.data import export, hdf5
+from soe_jax import checkpoint
+from soe_jax.data import export
 from soe_jax.envs import manipulation
 from soe_jax.envs import registry as env_registry
 from soe_jax.policies import agent as agent_lib
-from soe_jax.rundir import RunDir
 
 
 @pytest.mark.slow
-def test_a_two_arm_round_keeps_refits_acts_and_exports(tmp_path):
+def test_a_two_arm_round_keeps_refits_acts_and_exports(tmp_path, expert_round):
   config = transport_config.get_config("smoke")
-  config.explore.strategy = transport_config.common.strategy_config("expert")  # keeps every start state
-  config.rounds.num_rounds = 1
-  workdir = str(tmp_path / "run")
-  summary = loop.run(config, workdir, progress=False)
-  run = RunDir.open(workdir)
-  kept, _ = hdf5.read_episodes(run.data_path(1))
-  assert len(kept) == summary["kept"] == config.explore.num_start_states  # the demonstrator succeeds from each
+  workdir, run, kept = expert_round(config)
   for ep in kept:
     t = len(ep["actions"])
     assert ep["actions"].shape == (t, 20)
     for k, size in manipulation.policy_obs_sizes(41, 2).items():
       assert ep["obs"][k].shape == (t, size), k
-  fits = [json.loads(line) for line in open(os.path.join(workdir, "metrics.jsonl")) if '"phase": "fit"' in line]
-  assert [f["num_episodes"] for f in fits] == [4, 4 + len(kept)]
   loaded = checkpoint.load(run.ckpt_dir(1))
   env = env_registry.env_from_config(config.env)
   state = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(7), 1))
