@@ -69,6 +69,6 @@ def test_an_image_smoke_run_explores_keeps_refits_and_exports_images(tmp_path, e
       images = demo["obs"][key][()]
       assert images.dtype == np.uint8 and images.shape == (demo.attrs["num_samples"], 84, 84, 3)
     states = demo["states"][()]
-  drawn = env.draw(states[:, 1 : 1 + env.mj_model.nq])
+  drawn = env.draw(states[:, 1 : 1 + env.mj_model.nq].astype(np.float32))  # as a step draws: from float32 qpos
   np.testing.assert_array_equal(images, drawn[manipulation.IMAGE_KEYS[-1]])
   env.renderer.close()

@@ -13,7 +13,10 @@ observation shows it has done its part.
 
 An expert can also start mid-episode: `init(obs, key, resume=True)` asks the task's `resume(obs)` which
 phase the scene is in (for example: holding the object, so carry on lifting) and plans from the
-current end-effector pose. Steering's scripted chooser and the `expert` strategy use this.
+current end-effector pose. Steering's scripted chooser and the `expert` strategy use this, resuming at
+every decision; so that this does not restart a minimum-jerk profile (which starts at rest) every few
+steps, a resumed expert's first motion moves at its constant speed (from rest; the later phases are
+minimum-jerk again).
 
 The action is the 10-d absolute pose of the script's robot (`robot`, its `robot<k>_` observations):
 position, rotation-6d of the top-down frame at the commanded yaw, gripper.
@@ -56,6 +59,7 @@ class ExpertState:
   noise: jax.Array
   params: dict
   key: jax.Array
+  linear: jax.Array  # () bool: the current motion moves at constant speed (a resumed expert's first)
 
 
 def topdown_rot(yaw: jax.Array) -> jax.Array:
@@ -119,6 +123,7 @@ class ScriptedExpert:
       noise=jnp.zeros(3),
       params=self.sample_params(key_params),
       key=key,
+      linear=jnp.asarray(resume),
     )
 
   def act(self, es: ExpertState, obs: dict):
@@ -131,7 +136,8 @@ class ScriptedExpert:
     start_yaw = jnp.where(starting, es.cmd_yaw, es.start_yaw)
     dist = jnp.linalg.norm(target.pos - start_pos) + 0.05 * jnp.abs(target.yaw - start_yaw)
     duration = jnp.where(starting, jnp.maximum(2, jnp.ceil(dist / target.speed)).astype(jnp.int32), es.duration)
-    s = min_jerk(jnp.minimum((es.t + 1) / duration, 1.0))
+    tau = jnp.minimum((es.t + 1) / duration, 1.0)
+    s = jnp.where(es.linear, tau, min_jerk(tau))
     cmd_pos = start_pos + (target.pos - start_pos) * s
     cmd_yaw = start_yaw + (target.yaw - start_yaw) * s
 
@@ -155,6 +161,7 @@ class ScriptedExpert:
       cmd_yaw=cmd_yaw,
       noise=noise,
       key=key,
+      linear=es.linear & ~advance,
     )
     return action, nxt
 

@@ -341,7 +341,10 @@ def resume1(obs):
   centre, _ = _payload(obs)
   over_bin = script.near_xy(centre, jnp.asarray(task.TARGET_BIN), 0.03)
   carrying = jnp.where(holding_hammer(obs, 0), 12, jnp.where(over_bin, 14, 13))
-  waiting = jnp.where(hammer_held_out(obs) & script.near_xy(eef, _grasp_point(obs, 1.0, GRASP1), 0.012), 10, 9)
+  # Above the handle once the hammer is held out: go down for it (from the waiting point, 3.5 cm
+  # along the handle from the grasp, as from anywhere nearer; a demonstrator resumed at every decision
+  # must not send the hand back up before its descent is done).
+  waiting = jnp.where(hammer_held_out(obs) & script.near_xy(eef, _grasp_point(obs, 1.0, GRASP1), 0.05), 10, 9)
   hammer_placed = _in_bin(centre, task.TARGET_BIN)
   after_trash = jnp.where(hammer_placed, 16, waiting)
   holds_trash = script.gripping(obs, trash, task.TRASH_HALF, robot=1)

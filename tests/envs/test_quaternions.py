@@ -76,8 +76,12 @@ def test_quaternions_are_continuous_along_policy_rollouts(task, jitted_env, task
   policy = checkpoint.policy_from_config(config)
   _, batch = _demos(task, jitted_env)
   frames = np.asarray(policy_obs(batch["obs"], xp=np))[:, :30]
+  actions = batch["actions"][:, :30]
   norm = normalizer_lib.fit(
-    frames.reshape(-1, policy.obs_dim), batch["actions"][:, :30].reshape(-1, 10), obs_min_span=env.obs_min_span
+    frames.reshape(-1, policy.obs_dim),
+    actions.reshape(-1, actions.shape[-1]),
+    obs_min_span=env.obs_min_span,
+    num_robots=env.num_robots,
   )
   agent = Agent(policy, _params(policy), norm)
   keys = jax.random.split(jax.random.PRNGKey(4), 4)
