@@ -74,3 +74,27 @@ def test_transport_demonstrator_resumes_mid_episode(jitted_env):
     assert (resumed[0].phase > 0).all() and (resumed[1].phase > 0).all()  # not from the start
     _, _, finished = _run(env, expert, state, resumed, env.episode_length - 280)
     assert finished.all(), (steps, resumed[0].phase, resumed[1].phase)
+
+
+def test_a_resumed_expert_moves_at_constant_speed_from_its_first_step(jitted_env):
+  """Resumed at every decision, a minimum-jerk start (at rest) would slow every move several-fold; a
+  resumed expert's first motion is linear, the demonstrations' motions stay minimum-jerk."""
+  import dataclasses
+
+  env, reset, _ = jitted_env("lift")
+  obs = reset(jax.random.PRNGKey(3)).obs
+  expert = dataclasses.replace(make_expert("lift"), noise_std=0.0)
+
+  def steps(es, n=4):
+    pos = []
+    for _ in range(n):
+      action, es = expert.act(es, obs)
+      pos.append(np.asarray(action[:3]))
+    return np.linalg.norm(np.diff(np.stack(pos), axis=0), axis=-1)
+
+  resumed = expert.init(obs, jax.random.PRNGKey(0), resume=True)  # over nothing yet: phase 1, above the cube
+  assert int(resumed.phase) == 1 and bool(resumed.linear)
+  linear = steps(resumed)
+  assert linear.min() > 1e-3 and np.ptp(linear) < 1e-6  # the same step every step
+  jerk = steps(resumed.replace(linear=np.asarray(False)))
+  assert jerk[0] < 0.5 * linear[0]  # a minimum-jerk start creeps (about a quarter of the speed here)
