@@ -72,3 +72,38 @@ def test_an_image_smoke_run_explores_keeps_refits_and_exports_images(tmp_path, e
   drawn = env.draw(states[:, 1 : 1 + env.mj_model.nq].astype(np.float32))  # as a step draws: from float32 qpos
   np.testing.assert_array_equal(images, drawn[manipulation.IMAGE_KEYS[-1]])
   env.renderer.close()
+
+
+@needs_egl
+@pytest.mark.slow
+def test_soe_steer_steers_an_image_policy_along_its_latent(tmp_path):
+  """The steering strategy on an image policy: the SNR over the round's data (its windows' images
+  encoded), proposals along the chosen dimensions that differ in where they move the hand, and an
+  exploration steered at every `every`-th decision."""
+  import jax
+
+  from soe_jax import loop
+  from soe_jax.data.episodes import EpisodeSet, build_buffer
+  from soe_jax.explore import registry as strategy_registry
+  from soe_jax.policies import agent as agent_lib
+
+  config = lift_config.get_config("smoke,image,soe_steer")
+  settings = config.explore.strategy.kwargs
+  settings.update(threshold_db=-1e9, max_dims=2, every=2)  # the two strongest dimensions, whatever their SNR
+  with loop.opened(config, str(tmp_path / "run"), progress=False) as exp:
+    demos, _, state = loop.round0(exp)
+    buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)], exp.env)
+    rec, _, _ = exp.explore(state, 1, buf)
+    snr, dims = rec["snr_db"], rec["steer_dims"]
+    assert len(snr) == config.policy.bypass.latent_dim and np.isfinite(snr).all()
+    assert sorted(dims) == sorted(np.argsort(snr)[-2:].tolist())
+    assert 0 < rec["steered_fraction"] < 1  # every 2nd decision
+    strategy = strategy_registry.make_strategy("soe_steer", exp.env, **settings)
+    env_state = jax.vmap(exp.env.reset)(jax.random.split(jax.random.PRNGKey(3), 2))
+    obs = manipulation.policy_input(env_state.obs, exp.policy.image_keys)
+    hist = agent_lib.initial_history(obs, exp.policy.n_obs_steps)
+    cands, dim_of = strategy.candidates(exp.agent(state), hist, jax.random.PRNGKey(4), tuple(dims))
+  n = settings.num_choices
+  assert cands.shape[:2] == (2, 2 * n) and dim_of.tolist() == [dims[0]] * n + [dims[1]] * n
+  paths = np.asarray(manipulation.action_positions(cands, 1))  # (2, 2n, Ta, 1, 3)
+  assert np.ptp(paths[:, :n], axis=1).max() > 1e-4  # the proposals along one dimension go different ways
