@@ -95,6 +95,7 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
       episode_length=400,
       obs_mode="low_dim",  # low_dim | image (the cameras' images beside the low-dim vector)
       image_size=84,
+      renderer="auto",  # auto (warp on a CUDA GPU with warp-lang) | gl | warp: what draws the cameras
     )
   )
   # image_frames: the frames of camera images the buffer holds (image policies; their images are stored

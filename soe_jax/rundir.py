@@ -55,6 +55,7 @@ ADDED = {
   "log.wandb_project": "soe_jax",
   "env.mjx_impl": "auto",
   "env.mjx_max_batch": 8192,
+  "env.renderer": "auto",
   "env.mjx_settings": "",
   "log.videos": 0,
   "env.obs_mode": "low_dim",

@@ -16,6 +16,7 @@ from soe_jax.errors import UserError
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.explore import select
 from soe_jax.policies import registry as policy_registry
+from soe_jax.render import choice as render_choice
 
 REFITS = ("continue", "scratch")
 REFIT_EMA = ("restart", "carry")  # a continued re-fit's EMA
@@ -60,6 +61,8 @@ def problems(config: ml_collections.ConfigDict) -> list[str]:
     name(physics.resolve_backend, config.env.backend)
   name(physics.check_mjx_impl, config.env.mjx_impl, config.env.backend)
   name(physics.parse_settings, config.env.mjx_settings, {})
+  if config.env.obs_mode == "image" or config.env.renderer not in ("auto", *render_choice.RENDERERS):
+    name(render_choice.resolve, config.env.renderer)
   name(controller.action_size, config.env.action_mode)
   name(policy_registry.HEADS.check, config.policy.head.name)
   name(policy_registry.ENCODERS.check, config.policy.encoder.name)

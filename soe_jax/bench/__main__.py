@@ -1,7 +1,7 @@
 """Benchmarks, each printing one JSON object as its last line.
 
 python -m soe_jax.bench env --task=square --num_envs=256 [--backend=mujoco|mjx --mjx_impl=jax|warp] [--num_envs=1 --unbatched]
-    [--obs_mode=image] [--out=results/render/<name>.json]
+    [--obs_mode=image --renderer=auto|gl|warp] [--out=results/render/<name>.json]
 python -m soe_jax.bench mjx --task=lift --mjx_impl=warp --num_envs=200 [--out=results/mjx/lift-warp.json]
 python -m soe_jax.bench fit --config=configs/square.py [--bypass=on|off] [--ema=on|off]
 python -m soe_jax.bench encoder [--batch=64 --widths=64,128,256,512] [--out=results/encoder/<name>.json]
@@ -28,6 +28,7 @@ flags.DEFINE_string("mjx_impl", "auto", "env / mjx: MJX's implementation, auto, 
 flags.DEFINE_string("mjx_settings", "", "env / mjx: MJX's solver options ('' the task's, engine, or name=value,...).")
 flags.DEFINE_bool("unbatched", False, "env: one environment stepped without vmap.")
 flags.DEFINE_string("obs_mode", "low_dim", "env: observations, low_dim or image (both cameras drawn every step).")
+flags.DEFINE_string("renderer", "auto", "env: what draws the cameras, auto, gl or warp (env.renderer).")
 flags.DEFINE_integer(
   "steps",
   None,
@@ -92,6 +93,7 @@ def main(argv):
       FLAGS.mjx_impl,
       FLAGS.mjx_settings,
       FLAGS.obs_mode,
+      FLAGS.renderer,
     )
     if FLAGS.out:
       from soe_jax.bench import experiment

@@ -4,8 +4,8 @@ Each arm follows a smooth scripted motion (a 4 cm circle around its start pose, 
 the IK, the servos and contacts all do real work. For the `mujoco` backend the time is split into
 physics (inside the C engine), host callback overhead (conversion, copies), IK and observations
 (each timed alone as the same compiled batch computation), and the remainder (scan, dispatch). With
-`obs_mode="image"` every step also draws both cameras (`render`: the time in the renderer pool's
-callback, its share of the total, and the frames drawn per second).
+`obs_mode="image"` every step also draws both cameras with `renderer` (`render`: the time in the
+renderer's callback, its share of the total, and the frames drawn per second).
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ import jax
 import jax.numpy as jnp
 
 from soe_jax.envs import make_env, manipulation
+from soe_jax.render import choice as render_choice
 
 
 def _motion(obs0, t):
@@ -35,12 +36,19 @@ def run(
   mjx_impl: str = "auto",
   mjx_settings: str = "",
   obs_mode: str = "low_dim",
+  renderer: str = "auto",
 ) -> dict:
   """`unbatched`: one environment stepped without `vmap` (MJX on a CPU is much slower under vmap)."""
   if unbatched and num_envs != 1:
     raise ValueError(f"unbatched runs one environment; got num_envs={num_envs}")
   env = make_env(
-    task, backend=backend, mjx_impl=mjx_impl, mjx_max_batch=num_envs, mjx_settings=mjx_settings, obs_mode=obs_mode
+    task,
+    backend=backend,
+    mjx_impl=mjx_impl,
+    mjx_max_batch=num_envs,
+    mjx_settings=mjx_settings,
+    obs_mode=obs_mode,
+    renderer=renderer,
   )
   steps = steps or (20 if env.backend == "mujoco" else 2)
   if unbatched:
@@ -90,7 +98,9 @@ def run(
     result["render"] = dict(
       share=round(render_s / total, 3),
       frames_per_s=round(n * len(env.cameras) / render_s, 1),
-      processes=env.renderer.processes,
+      renderer=render_choice.resolve(renderer),
+      processes=getattr(env.renderer, "processes", None),  # the GL pool's
+      device=getattr(env.renderer, "device", None),  # Warp's
     )
   if env.backend == "mujoco" and not unbatched:
     result["split_s_per_1k_control_steps"] = _split(env, state, total, n, physics, render_s)
@@ -136,9 +146,10 @@ def _split(env, state, total, n, physics, render_s) -> dict:
 
 def table(records: list[tuple[str, dict]]) -> str:
   """One row per `bench env --out` record (`throughput`), by task, images first, then batch: the
-  batch, the observations, the speed, and with images the rendering's share and frames per second."""
+  batch, the observations, the speed, and with images the rendering's share and frames per second,
+  and the renderer (the GL pool's processes, or Warp's device)."""
   md = [
-    "| task | environments | observations | control steps/s | frames/s (both cameras) | render share | renderer processes |",
+    "| task | environments | observations | control steps/s | frames/s (both cameras) | render share | renderer |",
     "|---|---|---|---|---|---|---|",
   ]
   key = lambda r: (r["throughput"]["task"], r["throughput"]["obs_mode"] != "image", r["throughput"]["num_envs"])
@@ -146,10 +157,16 @@ def table(records: list[tuple[str, dict]]) -> str:
     t = r["throughput"]
     draw = t.get("render")
     frames, share, procs = (
-      (f"{draw['frames_per_s']:,.0f}", f"{100 * draw['share']:.0f}%", draw["processes"]) if draw else ("-", "-", "-")
+      (f"{draw['frames_per_s']:,.0f}", f"{100 * draw['share']:.0f}%", _renderer(draw)) if draw else ("-", "-", "-")
     )
     md.append(
       f"| {t['task']} | {t['num_envs']} | {t['obs_mode']} | {t['control_steps_per_s']:,.0f} | {frames} | {share} "
       f"| {procs} |"
     )
   return "\n".join(md) + "\n"
+
+
+def _renderer(draw: dict) -> str:
+  if draw.get("renderer", "gl") == "gl":
+    return f"OpenGL, {draw['processes']} processes"
+  return f"Warp on {draw['device']}"

@@ -16,9 +16,9 @@ then object (Lift 10, Can 14, Square 14, Transport 41), and extras for experts a
 robot<k>_joint_pos (7), robot<k>_eef_rot (9, grip-site rotation matrix, row-major). The policy sees
 `policy_obs_keys(num_robots)` concatenated in that order (`POLICY_OBS_KEYS` for one robot). With
 `obs_mode="image"` the observations also hold robomimic's camera images, uint8 (size, size, 3), rows
-top-down, drawn after every control step (and at reset) from the joint positions by a pool of
-renderer processes on the host (`render.pool`), reached through `jax.pure_callback` on either
-backend; the single-arm tasks' cameras (`CAMERAS`; a task may name others, `image_cameras`):
+top-down, drawn after every control step (and at reset) from the joint positions on the host,
+reached through `jax.pure_callback` on either backend, by a pool of OpenGL renderer processes
+(`render.pool`) or MuJoCo Warp's batch ray tracer (`env.renderer`, `render.choice`); the single-arm tasks' cameras (`CAMERAS`; a task may name others, `image_cameras`):
   agentview_image            the fixed camera facing the robot (robosuite's `agentview` pose)
   robot0_eye_in_hand_image   the wrist camera on the hand, looking out between the fingers
 
@@ -47,7 +47,7 @@ import numpy as np
 from brax.envs.base import Env, State
 
 from soe_jax.envs import controller, panda, physics, rotations
-from soe_jax.render import pool
+from soe_jax.render import choice as render_choice
 
 # Sizes of one robot's policy-observation keys, `robot<k>_` + each; `object` is the task's own
 # (`ManipulationEnv.object_dim`).
@@ -95,6 +95,7 @@ def base_config() -> ml_collections.ConfigDict:
       episode_length=400,  # control steps: robomimic's evaluation horizon for lift / can / square
       obs_mode="low_dim",  # low_dim | image (adds the cameras' images to the observations)
       image_size=84,  # the images' height and width in pixels (robomimic's 84)
+      renderer="auto",  # auto (warp on a CUDA GPU with warp-lang) | gl | warp (`render.choice`)
     )
   )
 
@@ -228,8 +229,9 @@ class ManipulationEnv(Env):
     self.cameras = tuple(self.image_cameras) if self.obs_mode == "image" else ()
     self.image_keys = tuple(f"{c}_image" for c in self.cameras)
     # Started on the first image; `render_seconds` is the time spent drawing, for benchmarks.
-    # No multisampling: the images are the policy's input, and llvmpipe draws them 2x faster without.
-    self.renderer = pool.Renderer(self.mj_model, self.cameras, self.image_size, samples=0) if self.cameras else None
+    self.renderer = (
+      render_choice.make(self.config.renderer, self.mj_model, self.cameras, self.image_size) if self.cameras else None
+    )
     self.render_seconds = 0.0
 
   @classmethod
