@@ -1,6 +1,7 @@
 """The paper-scale image policy on a GPU host: the ResNet-18 encoder's fit step, the whole image
 policy's fit step (two cameras' ResNet-18s and Diffusion Policy's UNet, `configs/lift.py:image`) with
-and without the VIB bypass, and one action chunk's sampling at 1 and 256 observations.
+and without the VIB bypass, one action chunk's sampling at 1 and 256 observations, and Lift's control
+steps with both cameras drawn by MuJoCo Warp's batch renderer on the GPU at 256 and 1,024 environments.
 
   python launch/gpu_image.py [--budget=280] [--cap=90] [--presets=image] [--out=DIR]
 
@@ -26,16 +27,26 @@ def cases(presets: str) -> list[tuple[str, list[str]]]:
     ("fit lift image, bypass and ema", ["fit", config, "--bypass=on", "--ema=on", "--steps=10", "--repeats=2"]),
     ("sample lift image batch 1", ["sample", config, "--batch=1"]),
     ("sample lift image batch 256", ["sample", config, "--batch=256"]),
+    *(
+      (
+        f"render lift warp {n} environments",
+        ["env", "--task=lift", f"--num_envs={n}", "--obs_mode=image"]
+        + ["--renderer=warp", "--steps=10", "--repeats=3"],
+      )
+      for n in (256, 1024)
+    ),
   ]
 
 
 def write(out: str, records: list[dict], left: list[str]) -> None:
   with open(os.path.join(out, "image.jsonl"), "w") as f:
     f.writelines(json.dumps(r) + "\n" for r in records)
-  md = ["| case | status | ms per step / chunk | first call s | wall s |", "|---|---|---|---|---|"]
+  md = ["| case | status | ms per step / chunk (or control steps/s) | first call s | wall s |", "|---|---|---|---|---|"]
   for r in records:
     res = r.get("result", {})
     ms = res.get("ms_per_step", res.get("ms_per_chunk", round(res["step_s"] * 1000, 1) if "step_s" in res else "-"))
+    if "control_steps_per_s" in res:
+      ms = f"{res['control_steps_per_s']:,.0f} steps/s"
     first = res.get("first_chunk_s", res.get("compile_s", "-"))
     md.append(f"| {r['case']} | {r['status']} | {ms} | {first} | {r['wall_s']} |")
   md += [f"| {c} | not run (budget) | | | |" for c in left]
