@@ -224,6 +224,12 @@ def test_the_cpu_preset_takes_the_tasks_own_demonstrations_and_steps():
   assert [c.fit.num_steps for c in (lift, can, square)] == [12_500, 20_000, 20_000]
   assert lift.policy.head.kwargs.down_dims == (32, 64, 128) and lift.fit.lr == 1e-3 and lift.rounds.refit_lr == 3e-4
   assert can_config.get_config("cpu,smoke").data.num_demos == 4  # smoke stays tiny
+  image = lift_config.get_config("cpu,image")  # Lift's image policy: robomimic's 10, fitted for 6k steps
+  assert (image.data.num_demos, image.fit.num_steps, can_config.get_config("cpu,image").fit.num_steps) == (
+    10,
+    6_000,
+    4_000,
+  )
 
 
 def test_a_rejected_config_writes_nothing(tmp_path):
