@@ -26,7 +26,8 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
   `soe,select=shortest_success` is `soe-select_shortest_success`): `select=RULE` (`rounds.select`),
   `length_cap=X` (`rounds.length_cap`: only successes no longer than X times the demonstrations' mean
   length), `alpha=X` and `hold=N` (the strategy's exploration scale; `soe`'s decisions per draw of
-  its latent noise);
+  its latent noise), `beta=X` (the bypass's KL weight `policy.bypass.beta`, the KL ablation: the
+  arm fits a round 0 of its own);
 - `head=NAME` (diffusion_unet, flow_unet, mlp);
 - `image`: the paper's simulation observations, the agent-view and in-hand cameras' 84 x 84 images
   beside the low-dim vector (`env.obs_mode`), encoded by robomimic's ResNet-18 per camera with random
@@ -57,6 +58,7 @@ VARIANTS = {
   "length_cap": ("rounds.length_cap", "cap"),
   "alpha": ("explore.strategy.kwargs.alpha", "alpha"),
   "hold": ("explore.strategy.kwargs.hold", "hold"),
+  "beta": ("policy.bypass.beta", "beta"),  # the KL ablation (round 0 too: its own, as the bypass trains there)
 }
 PRESETS = ("smoke", "cpu", "head", "image", "expert_data") + tuple(VARIANTS) + METHODS
 # The image encoder's trunk widths under `cpu,image` and `smoke,image` (ResNet-18's otherwise).

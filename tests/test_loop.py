@@ -194,7 +194,8 @@ def test_method_presets_choose_the_strategy():
   with pytest.raises(ValueError, match="choose one method preset"):
     lift_config.get_config("soe,dp")
   with pytest.raises(
-    ValueError, match="known presets: smoke, cpu, head, image, expert_data, select, length_cap, alpha, hold, dp, sime,"
+    ValueError,
+    match="known presets: smoke, cpu, head, image, expert_data, select, length_cap, alpha, hold, beta, dp, sime,",
   ):
     lift_config.get_config("fast")
   with pytest.raises(ValueError, match="expert_data goes with an exploring method"):
@@ -207,6 +208,9 @@ def test_variant_presets_set_their_field_and_name_the_method():
   assert (c.rounds.select, c.rounds.length_cap) == ("shortest_success", 1.5)
   assert c.explore.strategy.kwargs.to_dict() == {"alpha": 1.0, "hold": 4}
   assert lift_config.get_config("sime,select=sime,expert_data").method == "sime-expert_data-select_sime"
+  ablated = lift_config.get_config("soe,beta=0")
+  assert (ablated.method, ablated.policy.bypass.beta) == ("soe-beta0", 0.0)
+  assert rundir.round0_key(ablated) != rundir.round0_key(lift_config.get_config("soe"))  # a round 0 of its own
   for presets, message in [
     ("control,select=sime", "goes with an exploring method"),
     ("soe,alpha", "needs a value: alpha=VALUE"),
