@@ -18,6 +18,7 @@ LAYERS = [
     "interrupt",
     "provenance",
     "cli",
+    "accelerators",
   ),
   ("render",),
   ("envs",),

@@ -25,6 +25,7 @@ import mujoco
 import numpy as np
 from flax import struct
 
+from soe_jax.accelerators import has_cuda_device, warp_installed
 from soe_jax.registry import Registry
 
 
@@ -47,21 +48,6 @@ def resolve_backend(name: str) -> str:
 
 
 MJX_IMPLS = ("jax", "warp")
-
-
-def warp_installed() -> bool:
-  try:
-    import warp  # noqa: F401
-  except ImportError:
-    return False
-  return True
-
-
-def has_cuda_device() -> bool:
-  try:
-    return any("cuda" in d.client.platform_version.lower() for d in jax.devices("gpu"))
-  except RuntimeError:  # no GPU backend
-    return False
 
 
 def resolve_mjx_impl(name: str) -> str:

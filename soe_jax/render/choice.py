@@ -4,19 +4,19 @@ pool of processes on the host's cores (`pool`); `warp`, MuJoCo Warp's batch ray 
 
 from __future__ import annotations
 
+from soe_jax import accelerators
+
 RENDERERS = ("gl", "warp")
 
 
 def resolve(name: str) -> str:
   """`name` with `auto` decided; an unknown name, or `warp` without warp-lang, is a ValueError saying
   what is known or how to install it."""
-  from soe_jax.envs import physics
-
   if name == "auto":
-    return "warp" if physics.has_cuda_device() and physics.warp_installed() else "gl"
+    return "warp" if accelerators.has_cuda_device() and accelerators.warp_installed() else "gl"
   if name not in RENDERERS:
     raise ValueError(f"unknown renderer {name!r}; known renderers: auto, {', '.join(RENDERERS)}")
-  if name == "warp" and not physics.warp_installed():
+  if name == "warp" and not accelerators.warp_installed():
     raise ValueError(
       "env.renderer='warp' needs warp-lang: pip install 'soe_jax[gpu]' (mujoco-mjx[warp]), or use env.renderer=gl"
     )
