@@ -13,6 +13,7 @@ renders any round afterwards (all rounds without --round; existing files are dra
 from __future__ import annotations
 
 import os
+import warnings
 
 import imageio.v2 as imageio
 import numpy as np
@@ -46,7 +47,9 @@ def write_mp4(path: str, video: np.ndarray, fps: int = FPS) -> None:
   """Write (T, H, W, 3) uint8 frames as H.264 MP4 (imageio-ffmpeg's own encoder), atomically."""
   os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
   tmp = f"{path}.tmp-{os.getpid()}.mp4"
-  imageio.mimwrite(tmp, list(video), fps=fps, codec="libx264", quality=7, macro_block_size=16)
+  with warnings.catch_warnings():  # JAX warns of any fork; imageio-ffmpeg's is followed at once by exec
+    warnings.filterwarnings("ignore", "os.fork", RuntimeWarning)
+    imageio.mimwrite(tmp, list(video), fps=fps, codec="libx264", quality=7, macro_block_size=16)
   os.replace(tmp, path)
 
 

@@ -5,9 +5,13 @@ draws a round again (or says which rounds have episodes)."""
 import os
 import subprocess
 import sys
+import warnings
 
 import imageio.v2 as imageio
+import jax.numpy as jnp
+import numpy as np
 
+from soe_jax import video
 from soe_jax.rundir import RunDir
 from tests.test_render import needs_egl
 
@@ -46,3 +50,12 @@ def test_the_video_command_draws_a_round_again_and_names_the_rounds_it_has(smoke
   cmd[4] = "--round=7"
   done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
   assert done.returncode == 2 and "no stored episodes for round 7 (rounds with some: 0, 1, 2;" in done.stderr
+
+
+def test_writing_a_video_raises_no_fork_warning(tmp_path):
+  jnp.zeros(1).block_until_ready()  # JAX's threads are up: it would warn of a fork now
+  with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    video.write_mp4(str(tmp_path / "v.mp4"), np.zeros((3, 16, 16, 3), np.uint8))
+  assert not [w for w in caught if "os.fork" in str(w.message)]
+  assert len(_frames(str(tmp_path / "v.mp4"))) == 3
