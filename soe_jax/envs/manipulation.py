@@ -18,7 +18,8 @@ robot<k>_joint_pos (7), robot<k>_eef_rot (9, grip-site rotation matrix, row-majo
 `obs_mode="image"` the observations also hold robomimic's camera images, uint8 (size, size, 3), rows
 top-down, drawn after every control step (and at reset) from the joint positions on the host,
 reached through `jax.pure_callback` on either backend, by a pool of OpenGL renderer processes
-(`render.pool`) or MuJoCo Warp's batch ray tracer (`env.renderer`, `render.choice`); the single-arm tasks' cameras (`CAMERAS`; a task may name others, `image_cameras`):
+(`render.pool`) or MuJoCo Warp's batch ray tracer (`env.renderer`, `render.choice`); the single-arm
+tasks' cameras (`CAMERAS`; a task may name others, `image_cameras`):
   agentview_image            the fixed camera facing the robot (robosuite's `agentview` pose)
   robot0_eye_in_hand_image   the wrist camera on the hand, looking out between the fingers
 
