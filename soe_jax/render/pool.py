@@ -77,6 +77,16 @@ class _Process:
     self.log.close()
 
 
+def check_cameras(model, cameras) -> None:
+  """A ValueError naming the model's cameras if `cameras` names one it lacks."""
+  known = [model.camera(i).name for i in range(model.ncam)]
+  missing = [c for c in cameras if c not in known]
+  if missing:
+    raise ValueError(
+      f"unknown camera {', '.join(map(repr, missing))}; the model's cameras: {', '.join(known) or 'none'}"
+    )
+
+
 class Renderer:
   """`cameras` of `model` at `height` x `width`, drawn by `processes` processes (default: one per core);
   `samples` replaces the model's multisampling (MuJoCo's default 4; 0 draws Mesa's llvmpipe 2x faster)."""
@@ -90,12 +100,9 @@ class Renderer:
     processes: int | None = None,
     samples: int | None = None,
   ):
+    check_cameras(model, cameras)
     self.cameras = tuple(cameras)
     self.height, self.width = int(height), int(width if width is not None else height)
-    missing = [c for c in self.cameras if c not in {model.camera(i).name for i in range(model.ncam)}]
-    if missing:
-      known = ", ".join(model.camera(i).name for i in range(model.ncam)) or "none"
-      raise ValueError(f"unknown camera {', '.join(map(repr, missing))}; the model's cameras: {known}")
     self.processes = int(processes or os.cpu_count() or 1)
     self._setup = dict(model=model, cameras=self.cameras, height=self.height, width=self.width, samples=samples)
     self._pool: list[_Process] = []

@@ -2,8 +2,8 @@
 
 `WarpRenderer(model, cameras, height, width)` has `pool.Renderer`'s interface (`render(qpos)` ->
 {camera: (N, height, width, 3) uint8, rows top-down}, `close()`), and runs on a CUDA GPU when warp-lang
-sees one, on Warp's CPU device otherwise (correct there, but single-threaded and about 2x slower per
-frame than the GL pool, so `env.renderer=auto` takes it only on a GPU). Only the kinematics are
+sees one, on Warp's CPU device otherwise (correct there, but single-threaded: ~2.7 ms a frame against
+the GL pool's ~0.7 ms per process, BENCHMARKS.md, so `env.renderer=auto` takes it only on a GPU). Only the kinematics are
 computed from `qpos`, as the GL pool does.
 
 The ray tracer has no near clipping plane: a camera inside or just outside its own body's geoms (the
@@ -19,6 +19,8 @@ import threading
 
 import mujoco
 import numpy as np
+
+from soe_jax.render import pool
 
 BLOCK = 1024
 _HIDDEN_GROUP = 3  # a geom group neither OpenGL's default options nor the contexts below draw
@@ -51,13 +53,9 @@ class WarpRenderer:
   """`cameras` of `model` at `height` x `width`, ray traced by MuJoCo Warp on `device` (default `device()`)."""
 
   def __init__(self, model, cameras, height: int, width: int | None = None, device: str | None = None):
-    known = [model.camera(i).name for i in range(model.ncam)]
-    missing = [c for c in cameras if c not in known]
-    if missing:
-      raise ValueError(
-        f"unknown camera {', '.join(map(repr, missing))}; the model's cameras: {', '.join(known) or 'none'}"
-      )
+    pool.check_cameras(model, cameras)
     self.model, self.cameras = model, tuple(cameras)
+    self._hidden = {c: near_geoms(model, c) for c in self.cameras}  # what each camera draws without
     self.height, self.width = int(height), int(width if width is not None else height)
     self.device = device
     self._blocks: dict[int, tuple] = {}  # block size -> (warp data, {camera: (context, output)})
@@ -77,7 +75,7 @@ class WarpRenderer:
         contexts = {}
         for camera in self.cameras:
           seen = copy.copy(self.model)
-          seen.geom_group[near_geoms(self.model, camera)] = _HIDDEN_GROUP
+          seen.geom_group[self._hidden[camera]] = _HIDDEN_GROUP
           rc = mjw.create_render_context(
             seen,
             nworld=n,
