@@ -69,8 +69,8 @@ def table(study: str) -> str:
   if all("check" in r for _, r in records):
     return convergence_table(records)
   if all("latent" in r for _, r in records):
-    groups = {_task_and_size(r["config"]) + (r["config"].get("seed"),) for _, r in records}
-    summary = "\n" + effective_dims_table(records) if len(groups) > 1 else ""  # tasks, sizes or seeds
+    groups = {_task_and_size(r["config"]) + (_kl_weight(r["config"]), r["config"].get("seed")) for _, r in records}
+    summary = "\n" + effective_dims_table(records) if len(groups) > 1 else ""  # tasks, sizes, KL weights or seeds
     return latent_table(records) + summary
   first = records[0][1]["evaluate"]["success"]
   md = ["| record | inputs | commit | fit (compile) | final loss | success | obs. features out of range | vs first: gained / lost (p) |",
@@ -153,19 +153,26 @@ def _task_and_size(config: dict) -> tuple[str, int | None]:
   return config.get("env", {}).get("task", "-"), config["policy"]["bypass"].get("latent_dim")
 
 
+def _kl_weight(config: dict) -> float:
+  return config["policy"]["bypass"].get("beta", 1e-3)  # (records before the KL ablation: the default)
+
+
 def effective_dims_table(records: list[tuple[str, dict]]) -> str:
-  """Latent records of several tasks, latent sizes or seeds: per task and latent size d, the number of
-  effective dimensions per training seed, their mean ± std, and the paper's number."""
+  """Latent records of several tasks, latent sizes, KL weights or seeds: per task, latent size d and KL
+  weight, the number of effective dimensions per training seed, their mean ± std, and the paper's number
+  (which it gives with the KL term only)."""
   groups: dict[tuple, dict] = {}
   for _, r in records:
-    groups.setdefault(_task_and_size(r["config"]), {})[r["config"].get("seed")] = len(r["latent"]["effective_dims"])
-  md = ["| task | latent size d | seeds | effective dimensions (SNR > 0 dB) per seed | mean ± std | paper |",
-        "|---|---|---|---|---|---|"]  # fmt: skip
-  for (task, d), per_seed in sorted(groups.items()):
+    key = _task_and_size(r["config"]) + (_kl_weight(r["config"]),)
+    groups.setdefault(key, {})[r["config"].get("seed")] = len(r["latent"]["effective_dims"])
+  md = ["| task | latent size d | KL weight | seeds | effective dimensions (SNR > 0 dB) per seed | mean ± std | paper |",
+        "|---|---|---|---|---|---|---|"]  # fmt: skip
+  for (task, d, beta), per_seed in sorted(groups.items()):
     n = [per_seed[k] for k in sorted(per_seed)]
     spread = f"{np.mean(n):.1f} ± {np.std(n, ddof=1):.1f}" if len(n) > 1 else f"{n[0]}"
     seeds = ", ".join(f"seed {k}: {per_seed[k]}" for k in sorted(per_seed))
-    md.append(f"| {task} | {d} | {len(n)} | {seeds} | {spread} | {PAPER_EFFECTIVE_DIMS.get(task, '-')} |")
+    paper = PAPER_EFFECTIVE_DIMS.get(task, "-") if beta else "-"
+    md.append(f"| {task} | {d} | {beta:g} | {len(n)} | {seeds} | {spread} | {paper} |")
   return "\n".join(md) + "\n"
 
 

@@ -57,25 +57,28 @@ def test_latent_records_get_effective_dimensions_and_exploration_paired_with_the
   assert rows[1].endswith("| 2 / 1 (p=1.000) |") and len(rows) == 2  # one task, size and seed: no summary
 
 
-def test_latent_records_of_tasks_sizes_and_seeds_get_their_effective_dimensions_beside_the_papers(tmp_path):
-  def record(task, d, seed, snr):
+def test_latent_records_of_tasks_sizes_kl_weights_and_seeds_get_their_effective_dimensions_beside_the_papers(tmp_path):
+  def record(task, d, seed, snr, beta=None):
     ex = dict(success=[1, 0], success_rate=0.5, wilson_low=0.1, wilson_high=0.9, num_rollouts=2, pass_at_k=0.5, k=2,
               jerk=3.0)  # fmt: skip
-    config = dict(env=dict(task=task), seed=seed, policy=dict(bypass=dict(latent_dim=d, batch_fraction=1.0)))
+    bypass = dict(latent_dim=d, batch_fraction=1.0) | ({} if beta is None else dict(beta=beta))  # older: no beta
+    config = dict(env=dict(task=task), seed=seed, policy=dict(bypass=bypass))
     dims = [i for i in range(len(snr)) if snr[i] > 0]
     return dict(commit="abc", config=config, latent=dict(snr_db=snr, effective_dims=dims), explore=ex)
 
   for name, args in {
     "a": ("lift", 16, 0, [1, 1, -1]),
-    "b": ("lift", 16, 1, [1, -1, -1]),
+    "b": ("lift", 16, 1, [1, -1, -1], 1e-3),
     "c": ("can", 32, 0, [1, 2, 3]),
+    "d": ("lift", 16, 0, [1, 1, 1], 0.0),  # the KL ablation: its own row, no paper number
   }.items():
     (tmp_path / f"{name}.json").write_text(json.dumps(record(*args)))
   latent, summary = (part.splitlines() for part in results.table(str(tmp_path)).split("\n\n"))
-  assert all(row.endswith("| - |") for row in latent[2:])  # each the first of its task and seed: unpaired
+  assert [row.endswith("| - |") for row in latent[2:]] == [True, True, True, False]  # d is paired with a
   assert summary[2:] == [
-    "| can | 32 | 1 | seed 0: 3 | 3 | 8 |",
-    "| lift | 16 | 2 | seed 0: 2, seed 1: 1 | 1.5 ± 0.7 | 8 |",
+    "| can | 32 | 0.001 | 1 | seed 0: 3 | 3 | 8 |",
+    "| lift | 16 | 0 | 1 | seed 0: 3 | 3 | - |",
+    "| lift | 16 | 0.001 | 2 | seed 0: 2, seed 1: 1 | 1.5 ± 0.7 | 8 |",
   ]
 
 
