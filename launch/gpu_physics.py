@@ -48,17 +48,19 @@ def cases() -> list[tuple[str, list[str]]]:
   return out
 
 
-def run_case(args: list[str], cap: float) -> dict:
+def run_case(args: list[str], cap: float, module: str = "soe_jax.bench") -> dict:
+  """`python -m module *args`, killed after `cap` seconds; a benchmark's result is its last JSON line
+  (other commands: none)."""
   t = time.perf_counter()
   try:
-    p = subprocess.run([sys.executable, "-m", "soe_jax.bench", *args], capture_output=True, text=True, timeout=cap)
+    p = subprocess.run([sys.executable, "-m", module, *args], capture_output=True, text=True, timeout=cap)
   except subprocess.TimeoutExpired:
     return dict(status=f"timed out after {cap:.0f} s", wall_s=round(time.perf_counter() - t, 1))
   wall = round(time.perf_counter() - t, 1)
   lines = [line for line in p.stdout.splitlines() if line.startswith("{")]
-  if p.returncode or not lines:
+  if p.returncode or (module == "soe_jax.bench" and not lines):
     return dict(status=f"failed (exit {p.returncode})", wall_s=wall, error=(p.stderr or p.stdout)[-1500:])
-  return dict(status="ok", wall_s=wall, result=json.loads(lines[-1]))
+  return dict(status="ok", wall_s=wall, **(dict(result=json.loads(lines[-1])) if lines else {}))
 
 
 def write(out: str, records: list[dict], left: list[str]) -> None:
@@ -101,15 +103,15 @@ def write(out: str, records: list[dict], left: list[str]) -> None:
   plt.close(fig)
 
 
-def run_all(todo: list[tuple[str, list[str]]], budget: float, cap: float, write) -> None:
-  """Run the cases in order until `budget` seconds are spent, each capped at `cap`; `write(records,
-  names left)` after every case, so a run cut short keeps what it measured."""
+def run_all(todo: list[tuple[str, list[str]]], budget: float, cap: float, write, module: str = "soe_jax.bench") -> None:
+  """Run the cases (`python -m module ARGS`) in order until `budget` seconds are spent, each capped at
+  `cap`; `write(records, names left)` after every case, so a run cut short keeps what it measured."""
   start = time.perf_counter()
   records = []
   while todo and (left := budget - (time.perf_counter() - start)) >= 15:
     name, args = todo.pop(0)
     print(f"[{time.perf_counter() - start:5.0f} s] {name}", flush=True)
-    record = dict(case=name, **run_case(args, min(cap, left)))
+    record = dict(case=name, **run_case(args, min(cap, left), module))
     print(f"        {record['status']}: {json.dumps(record.get('result', {}))[:300]}", flush=True)
     records.append(record)
     write(records, [c for c, _ in todo])
