@@ -520,6 +520,8 @@ def test_the_latent_benchmark_explores_as_the_run_did_and_names_the_dimensions_a
   snr = result["latent"]["snr_db"]
   assert len(snr) == config.policy.bypass.latent_dim
   assert result["latent"]["effective_dims"] == sorted((i for i in range(len(snr)) if snr[i] > 0), key=lambda i: -snr[i])
+  signal, noise = np.array(result["latent"]["signal_db"]), np.array(result["latent"]["noise_db"])
+  np.testing.assert_allclose(signal - noise, snr, atol=2e-3)  # the SNR's two parts, each rounded
   ran = rundir.read_json(RunDir(workdir, config).phase_path(1, "explore"))
   assert result["explore"]["success"] == ran["success"] and result["explore"]["jerk"] == pytest.approx(ran["jerk"])
   evaluated = rundir.read_json(RunDir(workdir, config).phase_path(0, "evaluate"))

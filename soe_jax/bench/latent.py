@@ -34,7 +34,7 @@ def run(
   config: ml_collections.ConfigDict, workdir: str | None = None, windows: int = 4096, progress: bool = True
 ) -> dict:
   """-> {command, commit, machine, round0_dir, config, round0: round 0's evaluation record, latent: {snr_db,
-  effective_dims, windows}, explore: round 1's exploration record (per-episode outcomes in `success`)}."""
+  signal_db: Var(mu), noise_db: E[sigma^2] (the SNR's two parts), effective_dims, windows}, explore: round 1's exploration record (per-episode outcomes in `success`)}."""
   source = provenance.header()
   validation.check(config)
   if windows < 2:
@@ -47,9 +47,18 @@ def run(
     buf = build_buffer(config, exp.policy, [EpisodeSet(demos, 0)], exp.env)
 
     def latent():
-      snr = [round(float(x), 3) for x in steering.buffer_snr(exp.agent(state), buf, exp.key(0, _SNR), windows)]
+      mu, log_std = steering.buffer_latents(exp.agent(state), buf, exp.key(0, _SNR), windows)
+      signal, noise = steering.signal_and_noise_db(mu, log_std)
+      snr, signal, noise = ([round(float(x), 3) for x in v] for v in (signal - noise, signal, noise))
       dims = list(steering.effective_dims(snr, THRESHOLD_DB))
-      return dict(snr_db=snr, effective_dims=dims, threshold_db=THRESHOLD_DB, windows=int(windows)), None
+      return dict(
+        snr_db=snr,
+        signal_db=signal,
+        noise_db=noise,
+        effective_dims=dims,
+        threshold_db=THRESHOLD_DB,
+        windows=int(windows),
+      ), None
 
     latent_rec = exp.phase(0, "latent", latent)[0]
     evaluated = exp.evaluate_phase(0, state)  # saved by round0: read back

@@ -18,11 +18,16 @@ import numpy as np
 from soe_jax import buffer as buffer_lib
 
 
+def signal_and_noise_db(mu: jax.Array, log_std: jax.Array) -> tuple[jax.Array, jax.Array]:
+  """mu, log_std (N, d) over N observations -> (d,) Var(mu) and E[sigma^2] in dB: how far the posterior
+  means spread over the observations, and the posterior's own variance."""
+  return 10.0 * jnp.log10(jnp.var(mu, axis=0)), 10.0 * jnp.log10(jnp.mean(jnp.exp(2.0 * log_std), axis=0))
+
+
 def snr_db(mu: jax.Array, log_std: jax.Array) -> jax.Array:
   """mu, log_std (N, d) over N observations -> (d,) SNR in dB."""
-  signal = jnp.var(mu, axis=0)
-  noise = jnp.mean(jnp.exp(2.0 * log_std), axis=0)
-  return 10.0 * jnp.log10(signal / noise)
+  signal, noise = signal_and_noise_db(mu, log_std)
+  return signal - noise
 
 
 def dimension_proposals(
@@ -75,11 +80,16 @@ def latent_snr(agent, obs_history, batch_size: int = 256) -> jax.Array:
   return snr_db(*_latents(agent, obs_history, batch_size))
 
 
-def buffer_snr(agent, buf, key: jax.Array, num_windows: int) -> jax.Array:
-  """(d,) SNR in dB over `num_windows` observation histories sampled from an episode buffer."""
+def buffer_latents(agent, buf, key: jax.Array, num_windows: int, batch_size: int = 256) -> tuple[jax.Array, jax.Array]:
+  """mu, log_std (num_windows, d) of the latent over observation histories sampled from an episode buffer."""
   p = agent.policy
   windows = buffer_lib.sample_windows(buf, key, num_windows, p.horizon, p.n_obs_steps, p.n_action_steps)
-  return latent_snr(agent, windows["obs"])
+  return _latents(agent, windows["obs"], batch_size)
+
+
+def buffer_snr(agent, buf, key: jax.Array, num_windows: int) -> jax.Array:
+  """(d,) SNR in dB over `num_windows` observation histories sampled from an episode buffer."""
+  return snr_db(*buffer_latents(agent, buf, key, num_windows))
 
 
 def effective_dims(snr, threshold_db: float = 0.0, max_dims: int | None = None) -> tuple[int, ...]:
