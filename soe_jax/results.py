@@ -125,9 +125,10 @@ def latent_table(records: list[tuple[str, dict]]) -> str:
   firsts = {}
   for name, r in records:
     firsts.setdefault(paired(r), name)
-  md = ["| record | setting | commit | round-0 success | effective dims (SNR > 0 dB) | highest SNR | exploration success | "
-        "Pass@k | jerk | vs the first of its task and seed: gained / lost (p) |",
-        "|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+  md = ["| record | setting | commit | round-0 success | effective dims (SNR > 0 dB) | highest SNR | posterior variance "
+        "E[sigma^2], median over dims | exploration success | Pass@k | jerk | vs the first of its task and seed: "
+        "gained / lost (p) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
   by_name = dict(records)
   for name, r in records:
     lat, ex = r["latent"], r["explore"]
@@ -136,9 +137,10 @@ def latent_table(records: list[tuple[str, dict]]) -> str:
     vs = "-" if ref == name else f"{c['gained']} / {c['lost']} (p={c['p_value']:.3f})"
     r0 = r.get("round0")  # (records before round 0's evaluation was part of them: '-')
     r0 = "-" if r0 is None else f"{_pct(r0['success_rate'])} (n={r0['num_rollouts']})"
+    noise = f"{np.median(lat['noise_db']):.1f} dB" if "noise_db" in lat else "-"  # (recorded since the KL ablation)
     md.append(
       f"| {name} | {_setting(r['config'], first['config'])} | {r['commit']} | {r0} | {len(lat['effective_dims'])} "
-      f"{lat['effective_dims']} | {max(lat['snr_db']):.1f} dB | {_pct(ex['success_rate'])} [{_pct(ex['wilson_low'])}, "
+      f"{lat['effective_dims']} | {max(lat['snr_db']):.1f} dB | {noise} | {_pct(ex['success_rate'])} [{_pct(ex['wilson_low'])}, "
       f"{_pct(ex['wilson_high'])}] (n={ex['num_rollouts']}) | {_pct(ex['pass_at_k'])} (k={ex['k']}) | {ex['jerk']:.1f} "
       f"| {vs} |"
     )

@@ -50,10 +50,14 @@ def test_latent_records_get_effective_dimensions_and_exploration_paired_with_the
 
   (tmp_path / "01.json").write_text(json.dumps(record(1.0, [3.0, -1.0, 5.0], [1, 1, 0, 0])))
   evaluated = dict(success_rate=0.625, num_rollouts=8)
-  (tmp_path / "02.json").write_text(json.dumps(record(0.25, [-2.0, 1.0, -1.0], [0, 1, 1, 1]) | {"round0": evaluated}))
+  second = record(0.25, [-2.0, 1.0, -1.0], [0, 1, 1, 1]) | {"round0": evaluated}
+  second["latent"] |= dict(signal_db=[-30.0, -19.0, -1.0], noise_db=[-28.0, -20.0, 0.0])
+  (tmp_path / "02.json").write_text(json.dumps(second))
   rows = results.table(str(tmp_path)).splitlines()[2:]
-  assert rows[0].startswith("| 01 | - | abc | - | 2 [2, 0] | 5.0 dB | 50.0%") and rows[0].endswith("| - |")
-  assert rows[1].startswith("| 02 | policy.bypass.batch_fraction=0.25 | abc | 62.5% (n=8) | 1 [1] | 1.0 dB | 75.0%")
+  assert rows[0].startswith("| 01 | - | abc | - | 2 [2, 0] | 5.0 dB | - | 50.0%") and rows[0].endswith("| - |")
+  assert rows[1].startswith(
+    "| 02 | policy.bypass.batch_fraction=0.25 | abc | 62.5% (n=8) | 1 [1] | 1.0 dB | -20.0 dB | 75.0%"
+  )
   assert rows[1].endswith("| 2 / 1 (p=1.000) |") and len(rows) == 2  # one task, size and seed: no summary
 
 
