@@ -34,7 +34,8 @@ def run(
   config: ml_collections.ConfigDict, workdir: str | None = None, windows: int = 4096, progress: bool = True
 ) -> dict:
   """-> {command, commit, machine, round0_dir, config, round0: round 0's evaluation record, latent: {snr_db,
-  signal_db: Var(mu), noise_db: E[sigma^2] (the SNR's two parts), effective_dims, windows}, explore: round 1's exploration record (per-episode outcomes in `success`)}."""
+  signal_db: Var(mu) and noise_db: E[sigma^2] (the SNR's two parts, per dimension), effective_dims,
+  windows}, explore: round 1's exploration record (per-episode outcomes in `success`)}."""
   source = provenance.header()
   validation.check(config)
   if windows < 2:

@@ -73,15 +73,10 @@ def _latents(agent, obs_history, batch_size: int):
   return jax.lax.map(one, obs_history, batch_size=batch_size)
 
 
-def latent_snr(agent, obs_history, batch_size: int = 256) -> jax.Array:
-  """(d,) SNR in dB of an agent's latent over raw observation histories (N, To, ...), encoded
-  `batch_size` at a time (an image encoder's activations for thousands of histories at once would not
-  fit in memory)."""
-  return snr_db(*_latents(agent, obs_history, batch_size))
-
-
 def buffer_latents(agent, buf, key: jax.Array, num_windows: int, batch_size: int = 256) -> tuple[jax.Array, jax.Array]:
-  """mu, log_std (num_windows, d) of the latent over observation histories sampled from an episode buffer."""
+  """mu, log_std (num_windows, d) of the latent over observation histories sampled from an episode buffer,
+  encoded `batch_size` at a time (an image encoder's activations for thousands of histories at once
+  would not fit in memory)."""
   p = agent.policy
   windows = buffer_lib.sample_windows(buf, key, num_windows, p.horizon, p.n_obs_steps, p.n_action_steps)
   return _latents(agent, windows["obs"], batch_size)
