@@ -19,7 +19,7 @@ import argparse
 import json
 import os
 
-from gpu_physics import run_all  # (launch/ is the script's directory)
+from gpu_physics import pyplot, run_all  # (launch/ is the script's directory)
 
 PHASES = (("0", "fit"), ("1", "explore"), ("1", "fit"), ("1", "evaluate"))
 
@@ -50,12 +50,8 @@ def write(out: str, task: str, seed: int, methods: list[str], records: list[dict
       md += ["", f.read()]
   with open(os.path.join(out, "campaign.md"), "w") as f:
     f.write("\n".join(md) + "\n")
-  try:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-  except ImportError:
+  plt = pyplot()
+  if plt is None:
     return
   where = {"GPU": os.path.join(out, "results"), "CPU": os.path.join("results", "campaign-cpu")}
   runs = {(m, w): metrics(os.path.join(d, task, f"seed{seed}", m)) for m in methods for w, d in where.items()}

@@ -63,6 +63,19 @@ def run_case(args: list[str], cap: float, module: str = "soe_jax.bench") -> dict
   return dict(status="ok", wall_s=wall, **(dict(result=json.loads(lines[-1])) if lines else {}))
 
 
+def pyplot():
+  """matplotlib's pyplot drawing to files, or None where the host lacks matplotlib (the tables still
+  get written)."""
+  try:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+  except ImportError:
+    return None
+  return plt
+
+
 def write(out: str, records: list[dict], left: list[str]) -> None:
   with open(os.path.join(out, "physics.jsonl"), "w") as f:
     f.writelines(json.dumps(r) + "\n" for r in records)
@@ -77,12 +90,8 @@ def write(out: str, records: list[dict], left: list[str]) -> None:
   md += [f"| {c} | not run (budget) | | | | |" for c in left]
   with open(os.path.join(out, "physics.md"), "w") as f:
     f.write("\n".join(md) + "\n")
-  try:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-  except ImportError:
+  plt = pyplot()
+  if plt is None:
     return
   series: dict[str, list[tuple[int, float]]] = {}
   for r in records:
