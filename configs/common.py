@@ -184,11 +184,17 @@ def strategy_config(name: str) -> ml_collections.ConfigDict:
 
 
 def apply_presets(
-  c: ml_collections.ConfigDict, arg: str | None, cpu_demos: int | None = None, cpu_steps: int = 10_000
+  c: ml_collections.ConfigDict,
+  arg: str | None,
+  cpu_demos: int | None = None,
+  cpu_steps: int = 10_000,
+  cpu_image_demos: int | None = None,
+  cpu_image_steps: int = 4_000,
 ) -> ml_collections.ConfigDict:
   """`cpu_demos`, `cpu_steps`: the task's number of demonstrations and round-0 fit steps under the `cpu`
   preset: a task may need another number of demonstrations than the paper's for its converged base
-  policy to succeed on the 20-80% of start states the experiment wants, or a longer fit to converge."""
+  policy to succeed on the 20-80% of start states the experiment wants, or a longer fit to converge.
+  `cpu_image_demos` (default `cpu_demos`), `cpu_image_steps`: the same under `cpu,image`."""
   presets = parse_arg(arg)
   methods = [m for m in METHODS if presets.get(m)]
   if len(methods) > 1:
@@ -261,7 +267,8 @@ def apply_presets(
     if presets.get("cpu") and not presets.get("smoke"):
       # A round-0 fit within an hour here: the narrow trunk's step is ~0.6 s (BENCHMARKS.md), the head's
       # and the bypass's come on top.
-      c.fit.num_steps = 4_000
+      c.fit.num_steps = cpu_image_steps
+      c.data.num_demos = cpu_image_demos or c.data.num_demos
     if c.explore.strategy.name == "sime":
       c.explore.strategy.kwargs.scale = 0.5  # SIME's scale for image tasks
   if "head" in presets:

@@ -22,11 +22,14 @@ from configs import common
 
 
 def get_config(arg=None):
-  c = common.apply_presets(common.base_config("lift", num_demos=10), arg, cpu_demos=3, cpu_steps=12_500)
-  presets = common.parse_arg(arg)
-  if presets.get("cpu") and presets.get("image") and not presets.get("smoke"):
-    # Robomimic's 10 demonstrations and a 6k-step fit (47 min of steps here): 87.0% of 100 evaluation states
-    # (BENCHMARKS.md, "An image policy on this CPU"; results/image/). 3 were not tried on images.
-    c.data.num_demos = 10
-    c.fit.num_steps = 6_000
-  return c
+  # Under `cpu,image`: robomimic's 10 demonstrations and a 6k-step fit (47 min of steps here), 87.0% of
+  # 100 evaluation states (BENCHMARKS.md, "An image policy on this CPU"; results/image/); 3 were not tried
+  # on images.
+  return common.apply_presets(
+    common.base_config("lift", num_demos=10),
+    arg,
+    cpu_demos=3,
+    cpu_steps=12_500,
+    cpu_image_demos=10,
+    cpu_image_steps=6_000,
+  )
