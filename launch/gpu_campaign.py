@@ -16,10 +16,11 @@ minutes.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 
 from gpu_physics import pyplot, run_all  # (launch/ is the script's directory)
+
+from soe_jax import runlog
 
 PHASES = (("0", "fit"), ("1", "explore"), ("1", "fit"), ("1", "evaluate"))
 
@@ -33,11 +34,7 @@ def cases(task: str, seed: int, methods: list[str], presets: str, out: str) -> l
 
 def metrics(run_dir: str) -> dict | None:
   """{(round, phase): record} of a run's metrics.jsonl (None if it has none yet)."""
-  path = os.path.join(run_dir, "metrics.jsonl")
-  if not os.path.exists(path):
-    return None
-  with open(path) as f:
-    return {(str(r["round"]), r["phase"]): r for r in map(json.loads, f)}
+  return {(str(r["round"]), r["phase"]): r for r in runlog.read_metrics(run_dir)} or None
 
 
 def write(out: str, task: str, seed: int, methods: list[str], records: list[dict], left: list[str]) -> None:
