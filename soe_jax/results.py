@@ -156,7 +156,7 @@ def _task_and_size(config: dict) -> tuple[str, int | None]:
 
 
 def _kl_weight(config: dict) -> float:
-  return config["policy"]["bypass"].get("beta", 1e-3)  # (records before the KL ablation: the default)
+  return config["policy"]["bypass"]["beta"]
 
 
 def effective_dims_table(records: list[tuple[str, dict]]) -> str:

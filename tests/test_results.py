@@ -45,7 +45,7 @@ def test_latent_records_get_effective_dimensions_and_exploration_paired_with_the
     ex = dict(success=success, success_rate=sum(success) / len(success), wilson_low=0.1, wilson_high=0.9,
               num_rollouts=len(success), pass_at_k=0.5, k=2, jerk=3.0)  # fmt: skip
     dims = [i for i in sorted(range(len(snr)), key=lambda i: -snr[i]) if snr[i] > 0]
-    config = dict(policy=dict(bypass=dict(batch_fraction=fraction)))
+    config = dict(policy=dict(bypass=dict(batch_fraction=fraction, beta=1e-3)))
     return dict(commit="abc", config=config, latent=dict(snr_db=snr, effective_dims=dims), explore=ex)
 
   (tmp_path / "01.json").write_text(json.dumps(record(1.0, [3.0, -1.0, 5.0], [1, 1, 0, 0])))
@@ -62,17 +62,16 @@ def test_latent_records_get_effective_dimensions_and_exploration_paired_with_the
 
 
 def test_latent_records_of_tasks_sizes_kl_weights_and_seeds_get_their_effective_dimensions_beside_the_papers(tmp_path):
-  def record(task, d, seed, snr, beta=None):
+  def record(task, d, seed, snr, beta=1e-3):
     ex = dict(success=[1, 0], success_rate=0.5, wilson_low=0.1, wilson_high=0.9, num_rollouts=2, pass_at_k=0.5, k=2,
               jerk=3.0)  # fmt: skip
-    bypass = dict(latent_dim=d, batch_fraction=1.0) | ({} if beta is None else dict(beta=beta))  # older: no beta
-    config = dict(env=dict(task=task), seed=seed, policy=dict(bypass=bypass))
+    config = dict(env=dict(task=task), seed=seed, policy=dict(bypass=dict(latent_dim=d, batch_fraction=1.0, beta=beta)))
     dims = [i for i in range(len(snr)) if snr[i] > 0]
     return dict(commit="abc", config=config, latent=dict(snr_db=snr, effective_dims=dims), explore=ex)
 
   for name, args in {
     "a": ("lift", 16, 0, [1, 1, -1]),
-    "b": ("lift", 16, 1, [1, -1, -1], 1e-3),
+    "b": ("lift", 16, 1, [1, -1, -1]),
     "c": ("can", 32, 0, [1, 2, 3]),
     "d": ("lift", 16, 0, [1, 1, 1], 0.0),  # the KL ablation: its own row, no paper number
   }.items():
