@@ -3,8 +3,8 @@
 `WarpRenderer(model, cameras, height, width)` has `pool.Renderer`'s interface (`render(qpos)` ->
 {camera: (N, height, width, 3) uint8, rows top-down}, `close()`), and runs on a CUDA GPU when warp-lang
 sees one, on Warp's CPU device otherwise (correct there, but single-threaded: ~2.7 ms a frame against
-the GL pool's ~0.7 ms per process, BENCHMARKS.md, so `env.renderer=auto` takes it only on a GPU). Only the kinematics are
-computed from `qpos`, as the GL pool does.
+the GL pool's ~0.7 ms per process, BENCHMARKS.md, so `env.renderer=auto` takes it only on a GPU). Only
+the kinematics are computed from `qpos`, as the GL pool does.
 
 The ray tracer has no near clipping plane: a camera inside or just outside its own body's geoms (the
 in-hand camera sits on the hand) would see them fill the frame, where OpenGL clips them at `znear`.
