@@ -1,8 +1,8 @@
 """Can: the self-improvement experiment on robomimic's PickPlaceCan (the can into its bin).
 
-  python -m soe_jax.main --config=configs/can.py:cpu,soe
+  python -m soe_jax run --config=configs/can.py:cpu,soe
 
-runs round 0 and one round of SOE exploration, re-fit and evaluation (configs/common.py says what
+runs round 0 and one round of SOE exploration, re-fit and evaluation (soe_jax/experiment/presets.py says what
 each preset does), leaving metrics.jsonl, report.md and plots in runs/can-soe-seed0/. Swap `soe` for
 `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
 
@@ -13,8 +13,11 @@ points [-5.6, +3.1] (BENCHMARKS.md, "Convergence of round 0";
 results/convergence/10_can_cpu_20demos_20k.json).
 """
 
-from configs import common
+from soe_jax.experiment import presets
 
 
 def get_config(arg=None):
-  return common.apply_presets(common.base_config("can", num_demos=20), arg, cpu_steps=20_000)
+  # `smoke` keeps the whole horizon: the demonstrator needs 90 to 130 steps.
+  return presets.apply_presets(
+    presets.base_config("can", num_demos=20), arg, cpu_steps=20_000, smoke_episode_length=None
+  )

@@ -1,8 +1,8 @@
 """Lift: the self-improvement experiment on robomimic's Lift (pick up the cube).
 
-  python -m soe_jax.main --config=configs/lift.py:cpu,soe
+  python -m soe_jax run --config=configs/lift.py:cpu,soe
 
-runs round 0 and one round of SOE exploration, re-fit and evaluation (configs/common.py says what
+runs round 0 and one round of SOE exploration, re-fit and evaluation (soe_jax/experiment/presets.py says what
 each preset does), leaving metrics.jsonl, report.md and plots in runs/lift-soe-seed0/. Swap `soe` for
 `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
 
@@ -14,19 +14,19 @@ more steps on the same data change that by +2.8 points [-0.4, +5.9] (BENCHMARKS.
 round 0"; results/convergence/11_lift_cpu_3demos_12k5.json).
 
 Benchmarks:
-  python -m soe_jax.bench fit --config=configs/lift.py:cpu
-  python -m soe_jax.bench rollout --config=configs/lift.py:cpu --strategy=soe --num_envs=100
+  python -m soe_jax bench fit --config=configs/lift.py:cpu
+  python -m soe_jax bench rollout --config=configs/lift.py:cpu --strategy=soe --num_envs=100
 """
 
-from configs import common
+from soe_jax.experiment import presets
 
 
 def get_config(arg=None):
   # Under `cpu,image`: robomimic's 10 demonstrations and a 6k-step fit (47 min of steps here), 87.0% of
   # 100 evaluation states (BENCHMARKS.md, "An image policy on this CPU"; results/image/); 3 were not tried
   # on images.
-  return common.apply_presets(
-    common.base_config("lift", num_demos=10),
+  return presets.apply_presets(
+    presets.base_config("lift", num_demos=10),
     arg,
     cpu_demos=3,
     cpu_steps=12_500,

@@ -1,8 +1,8 @@
 """Square: the self-improvement experiment on robomimic's NutAssemblySquare (the nut onto its peg).
 
-  python -m soe_jax.main --config=configs/square.py:cpu,soe
+  python -m soe_jax run --config=configs/square.py:cpu,soe
 
-runs round 0 and one round of SOE exploration, re-fit and evaluation (configs/common.py says what
+runs round 0 and one round of SOE exploration, re-fit and evaluation (soe_jax/experiment/presets.py says what
 each preset does), leaving metrics.jsonl, report.md and plots in runs/square-soe-seed0/. Swap `soe` for
 `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
 
@@ -13,12 +13,15 @@ points [-3.5, +4.5] (BENCHMARKS.md, "Convergence of round 0";
 results/convergence/08_square_recipe_20k.json).
 
 Benchmarks:
-  python -m soe_jax.bench fit --config=configs/square.py:cpu --bypass=on
-  python -m soe_jax.bench sample --config=configs/square.py --batch=1 --steps=10
+  python -m soe_jax bench fit --config=configs/square.py:cpu --bypass=on
+  python -m soe_jax bench sample --config=configs/square.py --batch=1 --steps=10
 """
 
-from configs import common
+from soe_jax.experiment import presets
 
 
 def get_config(arg=None):
-  return common.apply_presets(common.base_config("square", num_demos=20), arg, cpu_steps=20_000)
+  # `smoke` keeps the whole horizon: the demonstrator needs 140 to 200 steps.
+  return presets.apply_presets(
+    presets.base_config("square", num_demos=20), arg, cpu_steps=20_000, smoke_episode_length=None
+  )

@@ -1,9 +1,9 @@
 """Transport: the self-improvement experiment on robomimic's TwoArmTransport (two arms hand the
 hammer over into the target bin while the trash goes to the trash bin).
 
-  python -m soe_jax.main --config=configs/transport.py:cpu,soe
+  python -m soe_jax run --config=configs/transport.py:cpu,soe
 
-runs round 0 and one round of SOE exploration, re-fit and evaluation (configs/common.py says what
+runs round 0 and one round of SOE exploration, re-fit and evaluation (soe_jax/experiment/presets.py says what
 each preset does), leaving metrics.jsonl, report.md and plots in runs/transport-soe-seed0/. Swap `soe`
 for `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
 
@@ -19,18 +19,17 @@ succeeds on 82.5% of 200 evaluation states (results/latent-dims/transport_d16_se
 (`smoke` too: the demonstrator needs ~300 steps to reach the handover).
 """
 
-from configs import common
+from soe_jax.experiment import presets
 
 HORIZON = 700  # robomimic's evaluation horizon for transport
 
 
 def get_config(arg=None):
-  c = common.base_config("transport", num_demos=20)
+  c = presets.base_config("transport", num_demos=20)
   c.env.episode_length = HORIZON
   c.data.max_length = HORIZON
-  c = common.apply_presets(c, arg, cpu_steps=20_000)
-  if common.parse_arg(arg).get("cpu") and not common.parse_arg(arg).get("smoke"):
+  # `smoke` keeps the whole horizon: the demonstrator needs 350 to 420 steps (the handover).
+  c = presets.apply_presets(c, arg, cpu_steps=20_000, smoke_episode_length=None)
+  if presets.parse_arg(arg).get("cpu") and not presets.parse_arg(arg).get("smoke"):
     c.policy.head.kwargs.down_dims = (64, 128, 256)
-  # `smoke` keeps the whole horizon: the handover takes the demonstrator ~300 steps.
-  c.env.episode_length = HORIZON
   return c

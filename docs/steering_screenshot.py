@@ -11,9 +11,9 @@ import threading
 
 from absl import flags
 
-from soe_jax import cli
+from soe_jax.runtime import cli
 
-flags.DEFINE_string("workdir", None, "A run directory written by python -m soe_jax.main.", required=True)
+flags.DEFINE_string("workdir", None, "A run directory written by python -m soe_jax run.", required=True)
 flags.DEFINE_integer("round", None, "The round whose policy to steer (default: the last finished).")
 flags.DEFINE_string("out", "docs/steering.png", "Where the picture goes.")
 flags.DEFINE_integer("seed", 0, "Start state of the episode.")

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Methods x training seeds x tasks, one `python -m soe_jax.campaign` per task and seed (the unit of
+# Methods x training seeds x tasks, one `python -m soe_jax campaign` per task and seed (the unit of
 # work: it builds that seed's round 0 and runs every method from it, exporting each finished run to
 # results/campaign-<PRESET>/<task>/seed<k>/<method>/ and rewriting results/campaign-<PRESET>/comparison.md).
 #   bash launch/campaign.sh [TASKS] [SEEDS] [PRESET] [METHODS]
@@ -12,7 +12,7 @@ preset=${3:-cpu}
 methods=${4:-dp,sime,soe,soe_steer,control,dp+expert_data,soe+expert_data}
 for task in $tasks; do
   for seed in $seeds; do
-    python -m soe_jax.campaign --config="configs/$task.py${preset:+:$preset}" --seed="$seed" --methods="$methods" \
+    python -m soe_jax campaign --config="configs/$task.py${preset:+:$preset}" --config.seed="$seed" --methods="$methods" \
       --workdir="runs/campaign-${preset:-default}" --results="results/campaign-${preset:-default}" --progress=false
   done
 done

@@ -5,5 +5,5 @@ set -euo pipefail
 n=${1:-200}
 seed=${2:-0}
 for task in lift can square; do
-  python -m soe_jax.experts --task="$task" --num_episodes="$n" --seed="$seed" --out="demos/$task.hdf5" | tail -n 1
+  python -m soe_jax experts --task="$task" --num_episodes="$n" --seed="$seed" --out="demos/$task.hdf5" | tail -n 1
 done

@@ -5,8 +5,8 @@ so its figures stand beside the CPU's from `results/campaign-cpu/<task>/seed<k>/
   python launch/gpu_campaign.py [--task=lift] [--seed=0] [--budget=290] [--cap=150]
       [--methods=soe,dp,control,sime,soe_steer] [--presets=cpu] [--out=DIR]
 
-Each method is one `python -m soe_jax.campaign` process with its own time cap (the first also fits
-round 0), run in order until the budget is spent. After each, DIR/campaign.md (each case's status and
+Each method is one `python -m soe_jax campaign` process with its own time cap (the first also fits round
+0), run in order until the budget is spent. After each, DIR/campaign.md (each case's status and
 wall time, then the campaign's comparison table), DIR/campaign.png (success before and after, and the
 time of each phase, per method, GPU beside CPU) and DIR/results/ (the campaign's `results/` files) are
 rewritten, so a run cut short keeps what it measured. `--presets=smoke` checks the script on a CPU in
@@ -18,18 +18,25 @@ from __future__ import annotations
 import argparse
 import os
 
-from gpu_physics import pyplot, run_all  # (launch/ is the script's directory)
+from gpu_physics import command, pyplot, run_all  # (launch/ is the script's directory)
 
-from soe_jax import runlog
+from soe_jax.experiment import runlog
 
 PHASES = (("0", "fit"), ("1", "explore"), ("1", "fit"), ("1", "evaluate"))
+MODULE = "soe_jax"  # each case is `python -m soe_jax campaign ...`
 
 
 def cases(task: str, seed: int, methods: list[str], presets: str, out: str) -> list[tuple[str, list[str]]]:
-  common = [f"--config=configs/{task}.py:{presets}", "--config.env.backend=mujoco", "--config.log.videos=0"]
-  common += [f"--seed={seed}"]  # (no videos: their encoder need not be on the host)
+  """[(case name, the arguments after `python -m MODULE`)], one case per method."""
+  common = ["campaign", f"--config=configs/{task}.py:{presets}", "--config.env.backend=mujoco"]
+  common += ["--config.log.videos=0", f"--config.seed={seed}"]  # (no videos: their encoder need not be on the host)
   common += [f"--workdir={out}/runs", f"--results={out}/results", "--progress=false"]
   return [(f"{task} seed {seed} {m}", [*common, f"--methods={m}"]) for m in methods]
+
+
+def command_lines(task: str, seed: int, methods: list[str], presets: str, out: str) -> list[list[str]]:
+  """The subprocesses' argv, in order, as `gpu_physics.run_case` starts them."""
+  return [command(args, MODULE) for _, args in cases(task, seed, methods, presets, out)]
 
 
 def metrics(run_dir: str) -> dict | None:
@@ -101,7 +108,7 @@ def main() -> None:
     a.budget,
     a.cap,
     lambda records, left: write(a.out, a.task, a.seed, methods, records, left),
-    "soe_jax.campaign",
+    MODULE,
   )
 
 

@@ -5,7 +5,7 @@ steps with both cameras drawn by MuJoCo Warp's batch renderer on the GPU at 256 
 
   python launch/gpu_image.py [--budget=280] [--cap=90] [--presets=image] [--out=DIR]
 
-Each case is one `python -m soe_jax.bench ...` process with its own time cap (compile included), run
+Each case is one `python -m soe_jax bench ...` process with its own time cap (compile included), run
 in order until the budget is spent; after each, DIR/image.jsonl and DIR/image.md are rewritten, so a
 run cut short keeps what it measured. `--presets=smoke,image` checks the script on a CPU in minutes.
 """
@@ -20,17 +20,21 @@ from gpu_physics import run_all  # (launch/ is the script's directory)
 
 
 def cases(presets: str) -> list[tuple[str, list[str]]]:
+  """(name, the arguments of `python -m soe_jax`) of every case, in order."""
   config = f"--config=configs/lift.py:{presets}"
   return [
-    ("encoder resnet18 batch 64", ["encoder", "--batch=64", "--steps=3", "--repeats=2"]),
-    ("fit lift image", ["fit", config, "--steps=10", "--repeats=2"]),
-    ("fit lift image, bypass and ema", ["fit", config, "--bypass=on", "--ema=on", "--steps=10", "--repeats=2"]),
-    ("sample lift image batch 1", ["sample", config, "--batch=1"]),
-    ("sample lift image batch 256", ["sample", config, "--batch=256"]),
+    ("encoder resnet18 batch 64", ["bench", "encoder", "--batch=64", "--steps=3", "--repeats=2"]),
+    ("fit lift image", ["bench", "fit", config, "--steps=10", "--repeats=2"]),
+    (
+      "fit lift image, bypass and ema",
+      ["bench", "fit", config, "--bypass=on", "--ema=on", "--steps=10", "--repeats=2"],
+    ),
+    ("sample lift image batch 1", ["bench", "sample", config, "--batch=1"]),
+    ("sample lift image batch 256", ["bench", "sample", config, "--batch=256"]),
     *(
       (
         f"render lift warp {n} environments",
-        ["env", "--task=lift", f"--num_envs={n}", "--obs_mode=image"]
+        ["bench", "env", "--task=lift", f"--num_envs={n}", "--obs_mode=image"]
         + ["--renderer=warp", "--steps=10", "--repeats=3"],
       )
       for n in (256, 1024)

@@ -1,11 +1,11 @@
 """Physics throughput on a GPU host: MJX with MuJoCo Warp and with MJX-JAX, and the C engine on the
 host's CPUs, every task at 256 / 2,048 / 4,096 / 8,192 environments, with compile times; then the MJX
-scene's acceptance checks (`python -m soe_jax.bench mjx`: the demonstrator on 200 start states, the
+scene's acceptance checks (`python -m soe_jax bench mjx`: the demonstrator on 200 start states, the
 end-effector paths against the C engine) and one policy rollout at 2,048 environments on the GPU.
 
   python launch/gpu_physics.py [--budget=290] [--cap=75] [--out=DIR]
 
-Each case is one `python -m soe_jax.bench ...` process with its own time cap (compile included); the
+Each case is one `python -m soe_jax bench ...` process with its own time cap (compile included); the
 cases run in priority order until the budget is spent, and the ones left are listed as not run.
 After every case, DIR/physics.jsonl (one record per case), DIR/physics.md (the table) and
 DIR/physics.png (control steps/s against environments) are rewritten, so a run cut short keeps what
@@ -25,22 +25,23 @@ SIZES = (256, 4096, 8192, 2048)  # the target size (4,096) early
 
 
 def cases() -> list[tuple[str, list[str]]]:
+  """(name, the arguments of `python -m soe_jax`) of every case, in priority order."""
   env = lambda task, backend, n, impl="": (
     f"env {task} {backend}{'-' + impl if impl else ''} {n}",
-    ["env", f"--task={task}", f"--backend={backend}", f"--num_envs={n}", "--steps=10", "--repeats=2"]
+    ["bench", "env", f"--task={task}", f"--backend={backend}", f"--num_envs={n}", "--steps=10", "--repeats=2"]
     + ([f"--mjx_impl={impl}"] if impl else []),
   )
   out = [env("lift", "mjx", n, "warp") for n in SIZES]
   out += [env(t, "mjx", 4096, "warp") for t in ("square", "can")]
   out += [env(t, "mujoco", 2048) for t in ("lift", "can", "square")]
-  out += [(f"mjx {t} warp 200", ["mjx", f"--task={t}", "--mjx_impl=warp", "--num_envs=200", "--progress=false"])
+  out += [(f"mjx {t} warp 200", ["bench", "mjx", f"--task={t}", "--mjx_impl=warp", "--num_envs=200", "--progress=false"])
           for t in ("lift", "can", "square")]  # fmt: skip
   out += [env(t, "mjx", n, "warp") for t in ("square", "can") for n in SIZES if n != 4096]
   out += [env("lift", "mjx", n, "jax") for n in (256, 4096)]
   out += [
     (
       "rollout lift mjx-warp 2048",
-      ["rollout", "--config=configs/lift.py:cpu", "--config.env.backend=mjx", "--config.env.mjx_impl=warp",
+      ["bench", "rollout", "--config=configs/lift.py:cpu", "--config.env.backend=mjx", "--config.env.mjx_impl=warp",
        "--strategy=soe", "--num_envs=2048"],
     )
   ]  # fmt: skip
@@ -48,17 +49,22 @@ def cases() -> list[tuple[str, list[str]]]:
   return out
 
 
-def run_case(args: list[str], cap: float, module: str = "soe_jax.bench") -> dict:
-  """`python -m module *args`, killed after `cap` seconds; a benchmark's result is its last JSON line
-  (other commands: none)."""
+def command(args: list[str], module: str = "soe_jax") -> list[str]:
+  """The command line of a case: `python -m module *args`."""
+  return [sys.executable, "-m", module, *args]
+
+
+def run_case(args: list[str], cap: float, module: str = "soe_jax") -> dict:
+  """`python -m module *args`, killed after `cap` seconds; a benchmark's result (`python -m soe_jax
+  bench ...`) is its last JSON line (other commands: none)."""
   t = time.perf_counter()
   try:
-    p = subprocess.run([sys.executable, "-m", module, *args], capture_output=True, text=True, timeout=cap)
+    p = subprocess.run(command(args, module), capture_output=True, text=True, timeout=cap)
   except subprocess.TimeoutExpired:
     return dict(status=f"timed out after {cap:.0f} s", wall_s=round(time.perf_counter() - t, 1))
   wall = round(time.perf_counter() - t, 1)
   lines = [line for line in p.stdout.splitlines() if line.startswith("{")]
-  if p.returncode or (module == "soe_jax.bench" and not lines):
+  if p.returncode or (module == "soe_jax" and args[:1] == ["bench"] and not lines):
     return dict(status=f"failed (exit {p.returncode})", wall_s=wall, error=(p.stderr or p.stdout)[-1500:])
   return dict(status="ok", wall_s=wall, **(dict(result=json.loads(lines[-1])) if lines else {}))
 
@@ -112,7 +118,7 @@ def write(out: str, records: list[dict], left: list[str]) -> None:
   plt.close(fig)
 
 
-def run_all(todo: list[tuple[str, list[str]]], budget: float, cap: float, write, module: str = "soe_jax.bench") -> None:
+def run_all(todo: list[tuple[str, list[str]]], budget: float, cap: float, write, module: str = "soe_jax") -> None:
   """Run the cases (`python -m module ARGS`) in order until `budget` seconds are spent, each capped at
   `cap`; `write(records, names left)` after every case, so a run cut short keeps what it measured."""
   start = time.perf_counter()

@@ -18,7 +18,7 @@ import jax
 if TYPE_CHECKING:
   from brax.envs.base import State
 
-  from soe_jax.buffer import EpisodeBuffer
+  from soe_jax.data.buffer import EpisodeBuffer
   from soe_jax.envs.manipulation import ManipulationEnv
   from soe_jax.policies.agent import Agent
 

@@ -5,7 +5,7 @@ import functools
 import jax
 import pytest
 
-from soe_jax import compile_cache
+from soe_jax.runtime import compile_cache
 
 compile_cache.enable()
 
@@ -42,7 +42,7 @@ def _release_compiled_programs():
 
 @functools.cache
 def _env(name: str, backend: str = "mujoco", episode_length: int | None = None):
-  from soe_jax.envs import make_env
+  from soe_jax.envs.registry import make_env
 
   return make_env(name, backend=backend, **({} if episode_length is None else {"episode_length": episode_length}))
 
@@ -71,14 +71,15 @@ def smoke_run(tmp_path_factory):
   """A finished two-round `lift:smoke,soe` run, with a video of each phase's first episode: (runs root,
   config, workdir, summary)."""
   from configs import lift as lift_config
-  from soe_jax import loop
+  from soe_jax.analysis import report
+  from soe_jax.experiment import loop
 
   root = tmp_path_factory.mktemp("runs")
   config = lift_config.get_config("smoke,soe")
   config.log.videos = 1
   workdir = str(root / "lift-soe")
-  summary = loop.run(config, workdir, progress=False)
-  return root, config, workdir, summary
+  loop.run(config, workdir, progress=False)
+  return root, config, workdir, report.write(workdir)
 
 
 @pytest.fixture
@@ -91,15 +92,16 @@ def expert_round(tmp_path):
     import json
     import os
 
-    from configs import common
-    from soe_jax import loop
+    from soe_jax.analysis import report
     from soe_jax.data import hdf5
-    from soe_jax.rundir import RunDir
+    from soe_jax.experiment import loop, presets
+    from soe_jax.experiment.rundir import RunDir
 
-    config.explore.strategy = common.strategy_config("expert")
+    config.explore.strategy = presets.strategy_config("expert")
     config.rounds.num_rounds = 1
     workdir = str(tmp_path / "run")
-    summary = loop.run(config, workdir, progress=False)
+    loop.run(config, workdir, progress=False)
+    summary = report.write(workdir)
     run_dir = RunDir.open(workdir)
     kept, _ = hdf5.read_episodes(run_dir.data_path(1))
     assert len(kept) == summary["kept"] == config.explore.num_start_states

@@ -64,7 +64,7 @@ def test_relative_improvement_keeps_the_absolute_difference():
 
 
 def test_episode_selection_rules():
-  from soe_jax.explore.select import select
+  from soe_jax.experiment.select import select
 
   s = np.array([[0, 1, 1, 0, 0], [0, 0, 0, 0, 0], [1, 1, 1, 1, 0], [1, 0, 0, 0, 1]], bool)
   length = np.array([[9, 50, 30, 9, 9], [9] * 5, [40, 20, 20, 60, 5], [70, 9, 9, 9, 45]])
@@ -87,7 +87,8 @@ def test_episode_selection_rules():
     select(s, length, "best")
 
 
-def test_paired_comparison_counts_gains_and_losses_with_mcnemars_exact_p():
+def test_paired_comparison_counts_gains_losses_and_mcnemars_p():
+  """A paired comparison counts gains and losses, with McNemar's exact p-value."""
   before = np.array([1, 1, 0, 0, 0, 0, 0, 0, 0, 0])
   after = np.array([1, 0, 1, 1, 1, 1, 1, 1, 0, 0])
   c = metrics.paired_comparison(before, after)
@@ -100,7 +101,7 @@ def test_paired_comparison_counts_gains_and_losses_with_mcnemars_exact_p():
   assert (same["gained"], same["lost"], same["p_value"], same["low"], same["high"]) == (0, 0, 1.0, 0.0, 0.0)
 
 
-def test_convergence_needs_a_small_paired_change_and_a_flat_curve():
+def test_convergence_needs_a_small_paired_change_and_flat_curve():
   rng = np.random.default_rng(0)
   before = rng.random(400) < 0.7
   after = before.copy()
@@ -115,7 +116,8 @@ def test_convergence_needs_a_small_paired_change_and_a_flat_curve():
   assert not metrics.convergence(before, better, flat)["converged"]
 
 
-def test_cmh_on_hand_computed_strata_and_on_matched_pairs_it_is_mcnemars():
+def test_cmh_matches_hand_computed_strata_and_mcnemar_on_pairs():
+  """CMH on hand-computed strata; on matched pairs it is McNemar's test."""
   # Two strata, rows the arms, columns success / failure; by hand: sum(a - E) = 2.5 + 2, summed
   # variance 15^4 / (30^2 * 29) + 10 * 10 * 12 * 8 / (20^2 * 19) = 3.2028, statistic 6.3226,
   # p = P(chi2_1 > 6.3226) = 0.01192; MH odds ratio (100/30 + 48/20) / (25/30 + 8/20) = 4.6486.

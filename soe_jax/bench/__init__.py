@@ -1,1 +1,1 @@
-"""Benchmarks: `python -m soe_jax.bench <what> ...`, each printing one JSON object last."""
+"""Benchmarks (`python -m soe_jax bench SUB ...`), each returning one JSON-ready record."""

@@ -24,7 +24,7 @@ CAMERAS = ("agentview_image", "robot0_eye_in_hand_image")
 
 def matmul_gflops(n: int = 2048, repeats: int = 10) -> float:
   """This machine's float32 matrix-product rate in XLA, GFLOP/s."""
-  a = jax.random.normal(jax.random.PRNGKey(0), (n, n))
+  a = jax.random.normal(jax.random.key(0), (n, n))
   f = jax.jit(lambda x: x @ x)
   jax.block_until_ready(f(a))
   t = time.perf_counter()
@@ -63,7 +63,7 @@ def run(
     "lowdim": jnp.asarray(rng.uniform(-1, 1, (batch, n_obs_steps, 9)).astype(np.float32)),
   }
   to_unit = lambda o: dict(o, images={c: v.astype(jnp.float32) / 255.0 for c, v in o["images"].items()})
-  params = enc.init({"params": jax.random.PRNGKey(0), "crop": jax.random.PRNGKey(1)}, to_unit(obs), train=True)
+  params = enc.init({"params": jax.random.key(0), "crop": jax.random.key(1)}, to_unit(obs), train=True)
   tx = optax.adamw(1e-4)
 
   def loss(p, key):
@@ -81,16 +81,16 @@ def run(
 
   carry = (params, tx.init(params))
   t = time.perf_counter()
-  compiled = jax.jit(chunk).lower(carry, jax.random.PRNGKey(2)).compile()
+  compiled = jax.jit(chunk).lower(carry, jax.random.key(2)).compile()
   compile_s = time.perf_counter() - t
   cost = compiled.cost_analysis()
   cost = cost[0] if isinstance(cost, list) else cost
   flops = float(cost.get("flops", 0.0)) / steps
   nbytes = float(cost.get("bytes accessed", 0.0)) / steps
-  carry, _ = jax.block_until_ready(compiled(carry, jax.random.PRNGKey(3)))  # warm-up
+  carry, _ = jax.block_until_ready(compiled(carry, jax.random.key(3)))  # warm-up
   t = time.perf_counter()
   for r in range(repeats):
-    carry, _ = compiled(carry, jax.random.PRNGKey(4 + r))
+    carry, _ = compiled(carry, jax.random.key(4 + r))
   jax.block_until_ready(carry)
   per_step = (time.perf_counter() - t) / (steps * repeats)
   rate, bandwidth = matmul_gflops(), memory_gbps()
@@ -113,21 +113,3 @@ def run(
     fraction_of_floor=round(max(flops / 1e9 / rate, nbytes / 1e9 / bandwidth) / per_step, 3),
     compile_s=round(compile_s, 2),
   )
-
-
-def table(records: list[tuple[str, dict]]) -> str:
-  """One row per `bench encoder --out` record: the trunk, its cost per step against both floors."""
-  md = [
-    "| trunk widths | parameters | batch x frames x cameras | GFLOP / GB per step | step | FLOP floor | byte floor "
-    "| fraction of the higher floor |",
-    "|---|---|---|---|---|---|---|---|",
-  ]
-  for _, r in records:
-    e = r["encoder"]
-    md.append(
-      f"| {'/'.join(map(str, e['widths']))} | {e['params'] / 1e6:.2f}M | {e['batch_size']} x {e['n_obs_steps']} x "
-      f"{e['cameras']} ({e['crop']}x{e['crop']}) | {e['gflop_per_step']:.1f} / {e['gb_per_step']:.2f} | {e['step_s']:.2f} s "
-      f"| {e['flop_floor_s']:.2f} s ({e['matmul_gflops']:.0f} GFLOP/s) | {e['byte_floor_s']:.2f} s "
-      f"({e['memory_gbps']:.1f} GB/s) | {100 * e['fraction_of_floor']:.0f}% |"
-    )
-  return "\n".join(md) + "\n"

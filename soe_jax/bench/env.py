@@ -15,15 +15,17 @@ import time
 import jax
 import jax.numpy as jnp
 
-from soe_jax.envs import make_env, manipulation
+from soe_jax.envs import observations
+from soe_jax.envs.registry import make_env
 from soe_jax.render import choice as render_choice
+from soe_jax.runtime.errors import UserError
 
 
 def _motion(obs0, t):
   """Action (10 per robot) at control step t: each arm a circle of 4 cm radius in the horizontal plane."""
   angle = 2 * jnp.pi * t / 80.0
   circle = 0.04 * jnp.array([jnp.cos(angle) - 1.0, jnp.sin(angle), 0.0])
-  return manipulation.pose_action(obs0, circle, jnp.where(jnp.mod(t, 40) < 20, -1.0, 1.0))
+  return observations.pose_action(obs0, circle, jnp.where(jnp.mod(t, 40) < 20, -1.0, 1.0))
 
 
 def run(
@@ -40,7 +42,7 @@ def run(
 ) -> dict:
   """`unbatched`: one environment stepped without `vmap` (MJX on a CPU is much slower under vmap)."""
   if unbatched and num_envs != 1:
-    raise ValueError(f"unbatched runs one environment; got num_envs={num_envs}")
+    raise UserError(f"unbatched runs one environment; got num_envs={num_envs}")
   env = make_env(
     task,
     backend=backend,
@@ -52,10 +54,10 @@ def run(
   )
   steps = steps or (20 if env.backend == "mujoco" else 2)
   if unbatched:
-    state = jax.jit(env.reset)(jax.random.PRNGKey(0))
+    state = jax.jit(env.reset)(jax.random.key(0))
     step, motion = env.step, _motion
   else:
-    state = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.PRNGKey(0), num_envs))
+    state = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(0), num_envs))
     step, motion = jax.vmap(env.step), jax.vmap(_motion, in_axes=(0, None))
   obs0 = state.obs
 
@@ -142,31 +144,3 @@ def _split(env, state, total, n, physics, render_s) -> dict:
     render=round(draw_s, 4),
     other=round(total_s - phys_s - cb_s - ik_s - obs_s - draw_s, 4),
   )
-
-
-def table(records: list[tuple[str, dict]]) -> str:
-  """One row per `bench env --out` record (`throughput`), by task, images first, then batch: the
-  batch, the observations, the speed, and with images the rendering's share and frames per second,
-  and the renderer (the GL pool's processes, or Warp's device)."""
-  md = [
-    "| task | environments | observations | control steps/s | frames/s (both cameras) | render share | renderer |",
-    "|---|---|---|---|---|---|---|",
-  ]
-  key = lambda r: (r["throughput"]["task"], r["throughput"]["obs_mode"] != "image", r["throughput"]["num_envs"])
-  for r in sorted((r for _, r in records), key=key):
-    t = r["throughput"]
-    draw = t.get("render")
-    frames, share, procs = (
-      (f"{draw['frames_per_s']:,.0f}", f"{100 * draw['share']:.0f}%", _renderer(draw)) if draw else ("-", "-", "-")
-    )
-    md.append(
-      f"| {t['task']} | {t['num_envs']} | {t['obs_mode']} | {t['control_steps_per_s']:,.0f} | {frames} | {share} "
-      f"| {procs} |"
-    )
-  return "\n".join(md) + "\n"
-
-
-def _renderer(draw: dict) -> str:
-  if draw.get("renderer", "gl") == "gl":
-    return f"OpenGL, {draw['processes']} processes"
-  return f"Warp on {draw['device']}"

@@ -3,7 +3,7 @@ end-effector paths of both backends over 50 scripted control steps from the same
 contacts and constraints the scene uses (the sizes MuJoCo Warp preallocates must cover them), and
 compile and run times.
 
-  python -m soe_jax.bench mjx --task=lift --mjx_impl=warp --num_envs=200 [--out=results/mjx/lift-warp.json]
+  python -m soe_jax bench mjx --task=lift --mjx_impl=warp --num_envs=200 [--out=results/mjx/lift-warp.json]
 
 The acceptance bar for an MJX scene (`ManipulationEnv.mjx_settings`): demonstrator success >= 95%
 and paths within 1 cm.
@@ -16,30 +16,38 @@ import time
 import jax
 import numpy as np
 
-from soe_jax import provenance
-from soe_jax.envs import agreement, make_env
+from soe_jax.envs import agreement
+from soe_jax.envs.registry import make_env
 from soe_jax.experts import collect
 from soe_jax.experts.registry import make_expert
+from soe_jax.runtime import provenance
 
 PATH_KEYS = 4  # start states of the path comparison
 PATH_STEPS = 50
 
 
 def run(
-  task: str, mjx_impl: str, num_episodes: int, mjx_settings: str = "", seed: int = 0, progress: bool = True
+  task: str,
+  mjx_impl: str,
+  num_episodes: int,
+  mjx_settings: str = "",
+  seed: int = 0,
+  progress: bool = True,
+  argv: list[str] | None = None,
 ) -> dict:
-  source = provenance.header()
+  """The record (`provenance.header(argv)` and `mjx`: the checks and their times)."""
+  source = provenance.header(argv)
   engine = make_env(task, backend="mujoco")
   env = make_env(
     task, backend="mjx", mjx_impl=mjx_impl, mjx_max_batch=max(num_episodes, PATH_KEYS), mjx_settings=mjx_settings
   )
-  keys = jax.random.split(jax.random.PRNGKey(seed), PATH_KEYS)
+  keys = jax.random.split(jax.random.key(seed), PATH_KEYS)
   t = time.perf_counter()
   mjx_paths = agreement.eef_paths(env, keys, PATH_STEPS)
   path_s = time.perf_counter() - t
   gap = np.linalg.norm(mjx_paths - agreement.eef_paths(engine, keys, PATH_STEPS), axis=-1)
   t = time.perf_counter()
-  batch = collect.run_demos(env, make_expert(task), jax.random.split(jax.random.PRNGKey(seed), num_episodes),
+  batch = collect.run_demos(env, make_expert(task), jax.random.split(jax.random.key(seed), num_episodes),
                             progress=progress)  # fmt: skip
   demos_s = time.perf_counter() - t
   success = batch["success"]
@@ -65,23 +73,3 @@ def run(
       control_steps=int(batch["length"].sum()),
     ),
   )
-
-
-def table(records: list[tuple[str, dict]]) -> str:
-  """One row per record: the scene's settings, the checks and their bars, the sizes against the peak."""
-  md = [
-    "| task | impl | MJX settings | demonstrator success (n) | mean length | path gap max / mean (50 steps) "
-    "| contacts: size / peak | constraints: size / peak | time (paths, demos) |",
-    "|---|---|---|---|---|---|---|---|---|",
-  ]
-  for _, r in records:
-    m = r["mjx"]
-    settings = ", ".join(f"{k}={v}" for k, v in m["settings"].items()) or "the C engine's"
-    ok = "" if m["success_rate"] >= 0.95 and m["path_gap_max_m"] <= 0.01 else " (fails the bar)"
-    md.append(
-      f"| {m['task']} | {m['impl']} | {settings} | {100 * m['success_rate']:.1f}% ({m['num_episodes']}){ok} "
-      f"| {m['mean_length']:.1f} | {1e6 * m['path_gap_max_m']:.1f} / {1e6 * m['path_gap_mean_m']:.1f} µm "
-      f"| {m['sizes']['contacts']} / {m['peak']['contacts']} | {m['sizes']['constraints']} / {m['peak']['constraints']} "
-      f"| {m['path_s']:.0f} s, {m['demos_s']:.0f} s |"
-    )
-  return "\n".join(md) + "\n"

@@ -14,10 +14,10 @@ import jax.numpy as jnp
 import ml_collections
 import numpy as np
 
-from soe_jax import buffer as buffer_lib
-from soe_jax import checkpoint, train_state
-from soe_jax import fit as fit_lib
+from soe_jax.data import buffer as buffer_lib
 from soe_jax.policies import normalizer as normalizer_lib
+from soe_jax.train import checkpoint, train_state
+from soe_jax.train import fit as fit_lib
 
 
 def _param_count(tree) -> int:
@@ -50,16 +50,16 @@ def _zero_obs(policy, batch: int):
 def fit(config: ml_collections.ConfigDict, bypass: bool, ema: bool, steps: int = 10, repeats: int = 2) -> dict:
   config = ml_collections.ConfigDict(config)
   config.policy.bypass.enabled = bypass
-  policy, params, buf, norm = _random_setup(config, jax.random.PRNGKey(0))
+  policy, params, buf, norm = _random_setup(config, jax.random.key(0))
   tx = train_state.make_optimizer(config.fit, 10_000)
   state = train_state.create(params, tx, norm, ema=ema)
   fit_cfg = ml_collections.ConfigDict(dict(batch_size=config.fit.batch_size, chunk_size=steps))
   t = time.perf_counter()
-  state, _ = fit_lib.fit(policy, tx, state, buf, jax.random.PRNGKey(1), steps, fit_cfg, progress=False)
+  state, _ = fit_lib.fit(policy, tx, state, buf, jax.random.key(1), steps, fit_cfg, progress=False)
   compile_and_first = time.perf_counter() - t
   t = time.perf_counter()
   for r in range(repeats):
-    state, _ = fit_lib.fit(policy, tx, state, buf, jax.random.PRNGKey(2 + r), steps, fit_cfg, progress=False)
+    state, _ = fit_lib.fit(policy, tx, state, buf, jax.random.key(2 + r), steps, fit_cfg, progress=False)
   jax.block_until_ready(state.params)
   per_step = (time.perf_counter() - t) / (steps * repeats)
   return dict(
@@ -83,16 +83,16 @@ def sample(config: ml_collections.ConfigDict, batch: int, steps: int, repeats: i
   config = ml_collections.ConfigDict(config)
   if "num_inference_steps" in config.policy.head.kwargs:
     config.policy.head.kwargs.num_inference_steps = steps
-  policy, params, _, _ = _random_setup(config, jax.random.PRNGKey(0))
+  policy, params, _, _ = _random_setup(config, jax.random.key(0))
   obs = _zero_obs(policy, batch)
   fn = jax.jit(policy.sample)
   t = time.perf_counter()
-  jax.block_until_ready(fn(params, obs, jax.random.PRNGKey(0)))
+  jax.block_until_ready(fn(params, obs, jax.random.key(0)))
   compile_s = time.perf_counter() - t
   times = []
   for r in range(repeats):
     t = time.perf_counter()
-    jax.block_until_ready(fn(params, obs, jax.random.PRNGKey(r)))
+    jax.block_until_ready(fn(params, obs, jax.random.key(r)))
     times.append(time.perf_counter() - t)
   return dict(
     bench="sample",

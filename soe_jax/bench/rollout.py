@@ -15,11 +15,12 @@ import jax
 import ml_collections
 import numpy as np
 
-from soe_jax import checkpoint, rollout
 from soe_jax.envs import registry
 from soe_jax.explore import registry as strategy_registry
+from soe_jax.explore import rollout
 from soe_jax.policies import normalizer as normalizer_lib
 from soe_jax.policies.agent import Agent
+from soe_jax.train import checkpoint
 
 
 def run(config: ml_collections.ConfigDict, strategy: str, num_envs: int, decisions: int = 2, repeats: int = 3) -> dict:
@@ -29,7 +30,7 @@ def run(config: ml_collections.ConfigDict, strategy: str, num_envs: int, decisio
   rng = np.random.default_rng(0)
   obs = rng.uniform(-0.3, 1.1, (256, policy.obs_dim))
   actions = rng.uniform(-1, 1, (256, policy.action_dim))
-  agent = Agent(policy, policy.init(jax.random.PRNGKey(0)), normalizer_lib.fit(obs, actions))
+  agent = Agent(policy, policy.init(jax.random.key(0)), normalizer_lib.fit(obs, actions))
   name = strategy or config.explore.strategy.name
   settings = dict(config.explore.strategy.kwargs) if name == config.explore.strategy.name else {}
   if name == "soe_steer":
@@ -37,17 +38,17 @@ def run(config: ml_collections.ConfigDict, strategy: str, num_envs: int, decisio
   strat = strategy_registry.make_strategy(name, env, **settings)
   if name == "soe_steer":
     strat = dataclasses.replace(strat, dims=tuple(range(min(strat.max_dims or 4, policy.p_net.latent_dim))))
-  keys = jax.random.split(jax.random.PRNGKey(1), num_envs)
+  keys = jax.random.split(jax.random.key(1), num_envs)
   fn = rollout.decisions_fn(env, strat, policy.n_action_steps, decisions)
   carry = rollout.initial_carry(env, policy.n_obs_steps, keys)
   t = time.perf_counter()
-  carry, out = fn(carry, agent, jax.random.PRNGKey(0))
+  carry, out = fn(carry, agent, jax.random.key(0))
   jax.block_until_ready(out)
   first = time.perf_counter() - t
   times = []
   for r in range(repeats):
     t = time.perf_counter()
-    carry, out = fn(carry, agent, jax.random.PRNGKey(r + 1))
+    carry, out = fn(carry, agent, jax.random.key(r + 1))
     jax.block_until_ready(out)
     times.append(time.perf_counter() - t)
   per_call = float(np.median(times))

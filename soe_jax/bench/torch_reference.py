@@ -3,27 +3,17 @@
 A line-for-line PyTorch port of Diffusion Policy's ConditionalUnet1D (`shared/specs/diffusion_policy.md`
 1: Conv1d-GroupNorm-Mish blocks, FiLM scale and bias, ConvTranspose1d upsampling), eager mode, float32,
 random data in memory, no EMA; the fit step is forward, epsilon MSE, backward and AdamW; the sample is
-DDIM with clipping (diffusers' update rule written out). Needs `pip install torch` (not a dependency).
-
-  python -m soe_jax.bench.torch_reference --down_dims=256,512,1024 --step_embed_dim=256 --batch=256
+DDIM with clipping (diffusers' update rule written out). Needs `pip install torch` (not a dependency);
+`python -m soe_jax bench torch` runs it.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import time
+from collections.abc import Sequence
 
-from absl import flags
-
-from soe_jax import cli
-
-flags.DEFINE_list("down_dims", ["256", "512", "1024"], "UNet widths.")
-flags.DEFINE_integer("step_embed_dim", 256, "Diffusion-step embedding size.")
-flags.DEFINE_integer("batch", 256, "Fit batch size.")
-flags.DEFINE_integer("threads", 2, "torch threads.")
-flags.DEFINE_integer("steps", 5, "Timed fit steps.")
-FLAGS = flags.FLAGS
+from soe_jax.runtime.errors import UserError
 
 
 def build(torch, nn, down_dims, dsed, input_dim=10, cond_dim=46, k=5, groups=8):
@@ -92,17 +82,24 @@ def build(torch, nn, down_dims, dsed, input_dim=10, cond_dim=46, k=5, groups=8):
   return Unet()
 
 
-def main(argv):
-  del argv
-  import torch
-  from torch import nn
+def run(
+  down_dims: Sequence[int] = (256, 512, 1024), step_embed_dim: int = 256, batch: int = 256, threads: int = 2,
+  steps: int = 5,
+) -> dict:  # fmt: skip
+  """The fit step (`steps` timed after 2 untimed, at `batch`) and one DDIM chunk's sampling (10 steps,
+  the median of 20) of the UNet with widths `down_dims`, on `threads` CPU threads."""
+  try:
+    import torch  # here, not at the top: torch is an optional extra, not a dependency
+    from torch import nn
+  except ImportError as e:
+    raise UserError("the torch reference needs PyTorch: pip install torch") from e
 
-  torch.set_num_threads(FLAGS.threads)
-  dims = [int(d) for d in FLAGS.down_dims]
-  net = build(torch, nn, dims, FLAGS.step_embed_dim)
+  torch.set_num_threads(threads)
+  dims = [int(d) for d in down_dims]
+  net = build(torch, nn, dims, step_embed_dim)
   params = sum(p.numel() for p in net.parameters())
   opt = torch.optim.AdamW(net.parameters(), lr=1e-4, betas=(0.95, 0.999), eps=1e-8, weight_decay=1e-6)
-  b = FLAGS.batch
+  b = batch
   x, g = torch.randn(b, 16, 10), torch.randn(b, 46)
 
   def fit_step():
@@ -116,9 +113,9 @@ def main(argv):
   for _ in range(2):
     fit_step()
   start = time.perf_counter()
-  for _ in range(FLAGS.steps):
+  for _ in range(steps):
     fit_step()
-  fit_s = (time.perf_counter() - start) / FLAGS.steps
+  fit_s = (time.perf_counter() - start) / steps
 
   betas = [
     min(
@@ -150,21 +147,13 @@ def main(argv):
     sample()
     times.append(time.perf_counter() - start)
   times.sort()
-  print(
-    json.dumps(
-      dict(
-        bench="torch_reference",
-        torch=torch.__version__,
-        threads=FLAGS.threads,
-        down_dims=dims,
-        batch=b,
-        params=params,
-        fit_ms_per_step=round(fit_s * 1000, 1),
-        ddim10_ms_per_chunk=round(times[len(times) // 2] * 1000, 2),
-      )
-    )
+  return dict(
+    bench="torch_reference",
+    torch=torch.__version__,
+    threads=threads,
+    down_dims=dims,
+    batch=b,
+    params=params,
+    fit_ms_per_step=round(fit_s * 1000, 1),
+    ddim10_ms_per_chunk=round(times[len(times) // 2] * 1000, 2),
   )
-
-
-if __name__ == "__main__":
-  cli.run(main, mjx=False)

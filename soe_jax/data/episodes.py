@@ -13,8 +13,8 @@ from typing import NamedTuple
 import ml_collections
 import numpy as np
 
-from soe_jax import buffer as buffer_lib
-from soe_jax.envs import manipulation
+from soe_jax.data import buffer as buffer_lib
+from soe_jax.envs import observations
 
 
 class EpisodeSet(NamedTuple):
@@ -40,7 +40,7 @@ def from_batch(obs: dict, actions, states, length, success, mask=None, next_obs:
 def from_rollout(out: dict, mask, num_robots: int = 1) -> list[dict]:
   """The episodes of a rollout's output (`rollout.rollout`) where `mask` (N,) is set, for a task of
   `num_robots` robots."""
-  obs, next_obs = (manipulation.split_policy_obs(out[k], num_robots) for k in ("obs", "next_obs"))
+  obs, next_obs = (observations.split_policy_obs(out[k], num_robots) for k in ("obs", "next_obs"))
   return from_batch(obs, out["actions"], out["states"], out["length"], out["success"], mask, next_obs)
 
 
@@ -69,7 +69,7 @@ def draw_images(env, episodes: list[dict], keys: tuple[str, ...]) -> list[dict]:
 
 def policy_episode(ep: dict) -> dict:
   """An episode -> {"policy_obs" (T, D), "actions" (T, A)} for the buffer."""
-  return {"policy_obs": manipulation.policy_obs(ep["obs"], xp=np), "actions": np.asarray(ep["actions"], np.float32)}
+  return {"policy_obs": observations.policy_obs(ep["obs"], xp=np), "actions": np.asarray(ep["actions"], np.float32)}
 
 
 def policy_frames(episodes: list[dict]) -> tuple[np.ndarray, np.ndarray]:

@@ -1,10 +1,5 @@
-"""A run's data in another codebase's format, and read back.
-
-  python -m soe_jax.data.export --workdir=DIR [--round=R] --format=robomimic|zarr|rlds --out=PATH
-
-Exports the data the fit of round R (default: the run's last) trained on, as the loop gathers it:
-the demonstrations, the episodes each round up to R kept, and the steered episodes the fit took.
-Formats:
+"""Groups of episodes (`EpisodeSet`s, such as the data a run's fit trained on: `RunDir.fit_sets`,
+`python -m soe_jax export`) in another codebase's format, and read back. Formats:
 - `robomimic`: one HDF5 file (`soe_jax/data/hdf5.py`), the episodes in that order, with a filter key
   per group: `demos`, `round_<r>`, `steered_<r>` (robomimic's `filter_by_attribute` takes one); an
   image run's episodes with robomimic's image keys too (`agentview_image`, `robot0_eye_in_hand_image`,
@@ -22,47 +17,15 @@ from __future__ import annotations
 import os
 import re
 
-from absl import app, flags
+import h5py
+import ml_collections
 
-from soe_jax import cli
 from soe_jax.data import hdf5, rlds, zarr_store
 from soe_jax.data.episodes import EpisodeSet, draw_images
-from soe_jax.errors import UserError
+from soe_jax.envs import registry as env_registry
+from soe_jax.runtime.errors import UserError
 
 FORMATS = ("robomimic", "zarr", "rlds")
-
-
-def define_flags() -> None:
-  flags.DEFINE_string("workdir", None, "The run directory whose data is exported.")
-  flags.DEFINE_integer("round", None, "The round whose fit's data is exported (default: the run's last).")
-  flags.DEFINE_enum("format", None, FORMATS, "robomimic (HDF5), zarr (Diffusion Policy's replay buffer) or rlds.")
-  flags.DEFINE_string("out", None, "Where the file (robomimic) or the directory (zarr, rlds) goes.")
-
-
-def run_sets(workdir: str, r: int | None = None) -> tuple[list[EpisodeSet], dict]:
-  """The episode groups round r's fit of the run in `workdir` trained on (default r: the last round
-  with a policy), and the metadata that goes with them."""
-  from soe_jax import rundir
-
-  run = rundir.RunDir.open(workdir)
-  last = run.last_round()
-  r = last if r is None else r
-  if not 0 <= r <= last:
-    raise UserError(f"{workdir}: round {r} has no policy yet; its rounds with one are 0..{last}")
-  sets = [EpisodeSet(run.demonstrations(), 0)]
-  for q in range(1, r + 1):
-    if os.path.exists(run.data_path(q)):
-      sets.append(EpisodeSet(hdf5.read_episodes(run.data_path(q))[0], q))
-  sets += run.steered_sets(r, run.config.rounds.steered == "successful")
-  meta = dict(
-    env_name=run.config.env.task,
-    env_kwargs=run.config.env.to_dict(),
-    source=f"{os.path.abspath(workdir)}: the data of round {r}'s fit",
-    method=run.config.method,
-    seed=int(run.config.seed),
-    round=r,
-  )
-  return [s for s in sets if s.episodes], meta
 
 
 def group_name(s: EpisodeSet) -> str:
@@ -89,8 +52,6 @@ def _meta(env_args: dict) -> dict:
 def read_robomimic(path: str) -> tuple[list[EpisodeSet], dict]:
   """A file with this exporter's filter keys -> its groups; any other file -> one group of all its
   episodes, as demonstrations."""
-  import h5py
-
   with h5py.File(path, "r") as f:
     keys = sorted(f["mask"].keys()) if "mask" in f else []
   groups = [k for k in keys if k == "demos" or re.fullmatch(r"(round|steered)_\d+", k)]
@@ -106,20 +67,15 @@ def read_robomimic(path: str) -> tuple[list[EpisodeSet], dict]:
   return sets, _meta(env_args)
 
 
-def export(workdir: str, fmt: str, out: str, r: int | None = None) -> tuple[list[EpisodeSet], dict]:
-  """Write round r's data of the run in `workdir` to `out` in format `fmt`; returns what it wrote."""
+def write(out: str, fmt: str, sets: list[EpisodeSet], meta: dict) -> None:
+  """Write the groups `sets` with `meta` (`env_name`, `env_kwargs`, provenance) to `out` in format
+  `fmt`; an image task's episodes get robomimic's image keys, drawn from their states."""
   if fmt not in FORMATS:
     raise UserError(f"unknown format {fmt!r}; known formats: {', '.join(FORMATS)}")
-  sets, meta = run_sets(workdir, r)
   if fmt == "robomimic" and meta["env_kwargs"].get("obs_mode") == "image":
-    import ml_collections
-
-    from soe_jax.envs import registry as env_registry
-
     env = env_registry.env_from_config(ml_collections.ConfigDict(dict(meta["env_kwargs"], backend="mujoco")))
     draw_images(env, [ep for s in sets for ep in s.episodes], env.image_keys)
   {"robomimic": write_robomimic, "zarr": zarr_store.write, "rlds": rlds.write}[fmt](out, sets, meta)
-  return sets, meta
 
 
 def load(path: str) -> tuple[list[EpisodeSet], dict]:
@@ -132,19 +88,3 @@ def load(path: str) -> tuple[list[EpisodeSet], dict]:
   if not os.path.exists(path):
     raise FileNotFoundError(f"{path!r} does not exist")
   return read_robomimic(path)
-
-
-def main(argv):
-  if len(argv) > 1:
-    raise app.UsageError(f"unexpected arguments: {' '.join(argv[1:])}")
-  for name in ("workdir", "format", "out"):
-    if not getattr(flags.FLAGS, name):
-      raise app.UsageError(f"--{name} is required")
-  sets, _ = export(flags.FLAGS.workdir, flags.FLAGS.format, flags.FLAGS.out, flags.FLAGS.round)
-  counts = ", ".join(f"{group_name(s)}: {len(s.episodes)}" for s in sets)
-  print(f"{flags.FLAGS.out}: {sum(len(s.episodes) for s in sets)} episodes ({counts})")
-
-
-if __name__ == "__main__":
-  define_flags()
-  cli.run(main)

@@ -40,6 +40,8 @@ import os
 import h5py
 import numpy as np
 
+from soe_jax.runtime import atomic
+
 ROBOSUITE_TYPE = 1  # robomimic's EnvType.ROBOSUITE_TYPE
 # robosuite's names of the tasks rebuilt here.
 ROBOSUITE_NAMES = {"lift": "Lift", "can": "PickPlaceCan", "square": "NutAssemblySquare", "transport": "TwoArmTransport"}
@@ -63,12 +65,11 @@ def _next_obs(ep: dict) -> dict:
 def write_episodes(path: str, episodes: list[dict], meta: dict, masks: dict[str, list[int]] | None = None) -> None:
   """Write `episodes` to `path` atomically (a temporary file, then a rename); `meta` goes into
   `env_args` (`robomimic_env_args`), `masks` {filter key: episode indices} into `mask/`."""
-  tmp = f"{path}.tmp-{os.getpid()}"
   os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
   for key, indices in (masks or {}).items():
     if any(not 0 <= i < len(episodes) for i in indices):
       raise ValueError(f"mask {key!r} names episodes outside 0..{len(episodes) - 1}: {sorted(indices)}")
-  with h5py.File(tmp, "w") as f:
+  with atomic.replacing(path) as tmp, h5py.File(tmp, "w") as f:
     data = f.create_group("data")
     total = 0
     for i, ep in enumerate(episodes):
@@ -97,7 +98,6 @@ def write_episodes(path: str, episodes: list[dict], meta: dict, masks: dict[str,
     data.attrs["env_args"] = json.dumps(robomimic_env_args(meta))
     for key, indices in (masks or {}).items():
       f[f"mask/{key}"] = np.array([f"demo_{i}" for i in sorted(indices)], dtype="S")
-  os.replace(tmp, path)
 
 
 def read_episodes(path: str, env=None, filter_key: str = "") -> tuple[list[dict], dict]:

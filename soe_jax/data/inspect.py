@@ -1,6 +1,4 @@
-"""What a data file holds.
-
-  python -m soe_jax.data.inspect PATH
+"""What a data file holds (`python -m soe_jax inspect PATH`).
 
 PATH: a robomimic HDF5 file (this project's demonstrations, a round's kept episodes, an export, or
 robomimic's own), or an exported zarr store or RLDS dataset. Prints the episodes per group (filter key, or source
@@ -14,9 +12,9 @@ import os
 
 import h5py
 import numpy as np
-from absl import app
 
-from soe_jax import cli
+from soe_jax.data import export
+from soe_jax.runtime.errors import UserError
 
 
 def _leaves(ep: dict, prefix: str = ""):
@@ -28,8 +26,9 @@ def _leaves(ep: dict, prefix: str = ""):
 
 
 def describe(path: str) -> str:
-  from soe_jax.data import export
-
+  """The lines `python -m soe_jax inspect PATH` prints."""
+  if not os.path.exists(path):
+    raise UserError(f"{path!r} does not exist")
   sets, meta = export.load(path)
   episodes = [ep for s in sets for ep in s.episodes]
   if not episodes:
@@ -51,13 +50,3 @@ def describe(path: str) -> str:
   lines += [f"    {k}: {v.shape} {v.dtype}" for k, v in _leaves(episodes[0])]
   lines.append(f"  provenance: {json.dumps(meta, sort_keys=True)}")
   return "\n".join(lines) + "\n"
-
-
-def main(argv):
-  if len(argv) != 2:
-    raise app.UsageError("usage: python -m soe_jax.data.inspect PATH")
-  print(describe(argv[1]), end="")
-
-
-if __name__ == "__main__":
-  cli.run(main)

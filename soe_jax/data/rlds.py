@@ -18,11 +18,11 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 
 import numpy as np
 
 from soe_jax.data.episodes import EpisodeSet
+from soe_jax.runtime import atomic
 
 NAME, VERSION = "soe_jax_episodes", "1.0.0"
 
@@ -111,13 +111,10 @@ def write(path: str, sets: list[EpisodeSet], meta: dict) -> None:
   missing = [i for i, (ep, _) in enumerate(episodes) if "states" not in ep or "next_obs" not in ep]
   if missing:
     raise ValueError(f"episodes {missing[:5]} lack states or next_obs, which RLDS's steps need")
-  tmp = f"{path}.tmp-{os.getpid()}"
   examples = [_example(ep, s, meta) for ep, s in episodes]
-  builder = _builder_class(tfds, _features(tfds, episodes[0][0]))(examples, data_dir=tmp, file_format="array_record")
-  builder.download_and_prepare()
-  if os.path.exists(path):
-    shutil.rmtree(path)
-  os.replace(tmp, path)
+  with atomic.replacing(path) as tmp:
+    builder = _builder_class(tfds, _features(tfds, episodes[0][0]))(examples, data_dir=tmp, file_format="array_record")
+    builder.download_and_prepare()
 
 
 def read(path: str) -> tuple[list[EpisodeSet], dict]:

@@ -17,11 +17,11 @@ the writer's metadata. Needs the `zarr` extra (`pip install -e ".[zarr]"`, zarr 
 from __future__ import annotations
 
 import os
-import shutil
 
 import numpy as np
 
 from soe_jax.data.episodes import EpisodeSet
+from soe_jax.runtime import atomic
 
 
 def _zarr():
@@ -38,8 +38,11 @@ def write(path: str, sets: list[EpisodeSet], meta: dict) -> None:
   episodes = [ep for s in sets for ep in s.episodes]
   if not episodes:
     raise ValueError("no episodes to write")
-  tmp = f"{path}.tmp-{os.getpid()}"
-  root = zarr.open_group(tmp, mode="w", zarr_format=2)
+  with atomic.replacing(path) as tmp:
+    _write(zarr.open_group(tmp, mode="w", zarr_format=2), sets, episodes, meta)
+
+
+def _write(root, sets, episodes, meta) -> None:
   data, m = root.require_group("data"), root.require_group("meta")
   cat = lambda f: np.concatenate([np.asarray(f(ep)) for ep in episodes])
   data.create_array("action", data=cat(lambda ep: np.asarray(ep["actions"], np.float32)))
@@ -53,9 +56,6 @@ def write(path: str, sets: list[EpisodeSet], meta: dict) -> None:
   m.create_array("episode_steered", data=np.asarray([s.steered for s in sets for _ in s.episodes], bool))
   m.create_array("episode_success", data=np.asarray([ep.get("success", True) for ep in episodes], bool))
   root.attrs["soe_jax"] = meta
-  if os.path.exists(path):
-    shutil.rmtree(path)
-  os.replace(tmp, path)
 
 
 def read(path: str) -> tuple[list[EpisodeSet], dict]:

@@ -1,7 +1,4 @@
-"""Simulated manipulation tasks on MuJoCo (MJX or the C engine) behind brax's `Env` interface."""
-
-from soe_jax.envs.manipulation import POLICY_OBS_KEYS, ManipulationEnv, policy_obs
-from soe_jax.envs.registry import env_names, make_env, register_env
-from soe_jax.envs.wrappers import wrap_env
-
-__all__ = ["POLICY_OBS_KEYS", "ManipulationEnv", "policy_obs", "env_names", "make_env", "register_env", "wrap_env"]
+"""Simulated manipulation tasks on MuJoCo (MJX or the C engine) behind brax's `Env` interface: by name
+in `registry` (`make_env`), the observation layout in `observations`, the shared task in `manipulation`.
+Importing the package imports nothing, so code that uses only the MuJoCo-free modules (`observations`,
+`registry`, `controller`, `backends`) does not load MuJoCo and brax."""

@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from soe_jax.envs import manipulation
+from soe_jax.envs import observations
 
 
 def scripted_motion(obs0: dict, t: jax.Array) -> jax.Array:
@@ -22,7 +22,7 @@ def scripted_motion(obs0: dict, t: jax.Array) -> jax.Array:
   start pose, its gripper closing at step 25."""
   angle = 2 * jnp.pi * t / 50.0
   loop = jnp.array([0.05 * jnp.sin(angle), 0.04 * (1 - jnp.cos(angle)), -0.03 * jnp.sin(angle)])
-  return manipulation.pose_action(obs0, loop, jnp.where(t < 25, -1.0, 1.0))
+  return observations.pose_action(obs0, loop, jnp.where(t < 25, -1.0, 1.0))
 
 
 def eef_paths(env, keys: jax.Array, steps: int = 50) -> np.ndarray:

@@ -18,7 +18,13 @@ import jax.numpy as jnp
 
 from soe_jax.envs import panda, rotations
 
-ACTION_SIZES = {"absolute": 10, "delta": 7}
+# One arm's action, in order: an absolute pose (position, rotation-6d) or robomimic's increments
+# (position, axis-angle), then the gripper.
+ACTION_LAYOUTS = {
+  "absolute": (("position", 3), ("rotation_6d", 6), ("gripper", 1)),
+  "delta": (("position", 3), ("axis_angle", 3), ("gripper", 1)),
+}
+CONTROL_DT = 0.05  # s per control step (20 Hz)
 MAX_STEP_POS = 0.03  # m per control step (0.6 m/s)
 MAX_STEP_ROT = 0.3  # rad per control step
 IK_DAMPING = 0.05
@@ -26,10 +32,14 @@ IK_ITERS = 3
 NULLSPACE_GAIN = 0.05  # pulls the redundant degree of freedom towards the initial posture
 
 
+def action_layout(mode: str) -> tuple[tuple[str, int], ...]:
+  if mode not in ACTION_LAYOUTS:
+    raise ValueError(f"unknown action mode {mode!r}; known: {', '.join(ACTION_LAYOUTS)}")
+  return ACTION_LAYOUTS[mode]
+
+
 def action_size(mode: str) -> int:
-  if mode not in ACTION_SIZES:
-    raise ValueError(f"unknown action mode {mode!r}; known: {', '.join(ACTION_SIZES)}")
-  return ACTION_SIZES[mode]
+  return sum(n for _, n in action_layout(mode))
 
 
 def _clip_norm(v: jax.Array, max_norm: float) -> jax.Array:

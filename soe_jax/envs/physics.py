@@ -24,9 +24,9 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 from flax import struct
+from mujoco import rollout
 
-from soe_jax.accelerators import has_cuda_device, warp_installed
-from soe_jax.registry import Registry
+from soe_jax.envs.backends import BACKENDS, resolve_backend, resolve_mjx_impl
 
 
 @struct.dataclass
@@ -36,39 +36,6 @@ class PhysicsState:
   qpos: jax.Array  # (nq,)
   qvel: jax.Array  # (nv,)
   raw: object  # mjx.Data, or (2 * nstate,) uint32 bytes of MuJoCo's float64 full physics state
-
-
-def resolve_backend(name: str) -> str:
-  """`auto` is `mujoco` on CPU and `mjx` on GPU/TPU."""
-  if name == "auto":
-    return "mujoco" if jax.default_backend() == "cpu" else "mjx"
-  if name not in BACKENDS.names():
-    raise ValueError(f"unknown physics backend {name!r}; known physics backends: auto, {', '.join(BACKENDS.names())}")
-  return name
-
-
-MJX_IMPLS = ("jax", "warp")
-
-
-def resolve_mjx_impl(name: str) -> str:
-  """`auto` is MuJoCo Warp on a CUDA GPU when warp-lang is installed, MJX's pure-JAX implementation
-  otherwise; `warp` without warp-lang is an error that says how to install it."""
-  if name == "auto":
-    return "warp" if has_cuda_device() and warp_installed() else "jax"
-  if name not in MJX_IMPLS:
-    raise ValueError(f"unknown MJX implementation {name!r}; known MJX implementations: auto, {', '.join(MJX_IMPLS)}")
-  if name == "warp" and not warp_installed():
-    raise ValueError(
-      "env.mjx_impl='warp' needs warp-lang: pip install 'soe_jax[gpu]' (mujoco-mjx[warp]), or use env.mjx_impl=jax"
-    )
-  return name
-
-
-def check_mjx_impl(name: str, backend: str) -> None:
-  """Refuse an unknown MJX implementation, and `warp` without warp-lang where MJX would run."""
-  runs_mjx = backend in ("auto", *BACKENDS.names()) and resolve_backend(backend) == "mjx"
-  if name not in ("auto", *MJX_IMPLS) or runs_mjx:
-    resolve_mjx_impl(name)
 
 
 def make_backend(name: str, model: mujoco.MjModel, nsubsteps: int, mjx_options: dict | None = None):
@@ -124,7 +91,7 @@ class MjxBackend:
     self.max_batch, self.contacts, self.constraints = int(max_batch), int(contacts), int(constraints)
     self.mjx_model = mjx.put_model(self.sim_model, impl=self.impl)
     if self.impl == "warp":
-      import warp
+      import warp  # here, not at the top: the optional `gpu` extra's (MuJoCo Warp)
 
       warp.config.quiet = True  # fewer lines per kernel module loaded
       # Warp prints a line each step that reaches an iteration cap; only losses are worth one.
@@ -186,31 +153,8 @@ class MjxBackend:
     return np.asarray(recorded, np.float64)
 
 
-SETTINGS = {"iterations": int, "ls_iterations": int, "cone": str}
+# MuJoCo's friction cones by the names `env.mjx_settings` takes (`backends.CONES`).
 CONES = {"pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL, "elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC}
-
-
-def parse_settings(text: str, task_default: dict) -> dict:
-  """`env.mjx_settings`: "" is the task's own, `engine` the C engine's (none replaced), else
-  comma-separated `name=value` (`iterations=10,ls_iterations=8,cone=pyramidal`)."""
-  if text == "":
-    return dict(task_default)
-  if text == "engine":
-    return {}
-  out = {}
-  for item in text.split(","):
-    name, _, value = item.strip().partition("=")
-    if name not in SETTINGS or not value:
-      raise ValueError(
-        f"bad env.mjx_settings item {item!r}; known settings: {', '.join(SETTINGS)} (name=value), or '' or engine"
-      )
-    try:
-      out[name] = SETTINGS[name](value)
-    except ValueError:
-      raise ValueError(f"bad env.mjx_settings item {item!r}: {name} takes an integer") from None
-  if out.get("cone", "pyramidal") not in CONES:
-    raise ValueError(f"unknown cone {out['cone']!r}; known cones: {', '.join(CONES)}")
-  return out
 
 
 def apply_settings(model: mujoco.MjModel, settings: dict) -> mujoco.MjModel:
@@ -227,8 +171,6 @@ class MujocoBackend:
   name = "mujoco"
 
   def __init__(self, model: mujoco.MjModel, nsubsteps: int, nthread: int | None = None):
-    from mujoco import rollout
-
     self.model = model
     self.nsubsteps = nsubsteps
     self.nthread = nthread or os.cpu_count() or 1
@@ -342,8 +284,3 @@ class MujocoBackend:
     """The exact MuJoCo state on the host, (..., nstate) float64."""
     bits = np.ascontiguousarray(jax.device_get(state.raw))
     return bits.view(np.float64)
-
-
-BACKENDS: Registry[MjxBackend | MujocoBackend] = Registry("physics backend")
-BACKENDS.register("mujoco", MujocoBackend)
-BACKENDS.register("mjx", MjxBackend)

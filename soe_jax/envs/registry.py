@@ -1,13 +1,22 @@
-"""Tasks by name. `make_env("square")` builds one; unknown names list the known ones."""
+"""Tasks by name. `make_env("square")` builds one; unknown names list the known ones.
+
+The MuJoCo tasks are registered by where their classes live and imported when a task is first made or
+its class first read (the lazy registry, `soe_jax.registry`): this module, and what only names a task,
+imports neither MuJoCo nor brax."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import ml_collections
 
-from soe_jax.envs import can, controller, lift, manipulation, square, transport
+from soe_jax.envs import controller, observations
 from soe_jax.registry import Registry
 
-TASKS: Registry[manipulation.ManipulationEnv] = Registry("task")
+if TYPE_CHECKING:
+  from soe_jax.envs.manipulation import ManipulationEnv
+
+TASKS: Registry[ManipulationEnv] = Registry("task")
 register_env = TASKS.register
 env_names = TASKS.names
 
@@ -19,7 +28,7 @@ def num_robots(name: str) -> int:
 
 def observation_size(name: str) -> int:
   """The policy's observation size for task `name` (19 for lift, 23 for can and square, 59 for transport)."""
-  return manipulation.policy_obs_size(TASKS.factory(name).object_dim, num_robots(name))
+  return observations.policy_obs_size(TASKS.factory(name).object_dim, num_robots(name))
 
 
 def action_size(name: str, action_mode: str) -> int:
@@ -32,7 +41,27 @@ def image_keys(name: str) -> tuple[str, ...]:
   return tuple(f"{c}_image" for c in TASKS.factory(name).image_cameras)
 
 
-def make_env(name: str, config: ml_collections.ConfigDict | None = None, **overrides) -> manipulation.ManipulationEnv:
+def task_spec(name: str, action_mode: str, cameras: tuple[str, ...] = (), image_size: int = 84) -> dict:
+  """What a policy for task `name` reads and writes, as `data.spec.PolicySpec`'s dict: the policy's
+  low-dimensional keys in order, the camera images `cameras` (of those the task draws) as
+  image_size-square uint8 images, each arm's action blocks, the action frame and the control rate."""
+  sizes = observations.policy_obs_sizes(TASKS.factory(name).object_dim, num_robots(name))
+  obs = {k: dict(shape=[n], dtype="float32") for k, n in sizes.items()}
+  drawn = image_keys(name)
+  for key in cameras:
+    if key not in drawn:
+      raise ValueError(f"unknown camera image {key!r}; the {name} task draws {', '.join(drawn)}")
+    obs[key] = dict(shape=[image_size, image_size, 3], dtype="uint8", image=True)
+  arm = [list(part) for part in controller.action_layout(action_mode)]
+  return dict(
+    observations=obs,
+    actions=[arm] * num_robots(name),
+    action_frame="world" if action_mode == "absolute" else "delta",
+    control_hz=1.0 / controller.CONTROL_DT,
+  )
+
+
+def make_env(name: str, config: ml_collections.ConfigDict | None = None, **overrides) -> ManipulationEnv:
   """Build task `name`; `overrides` replace fields of its default config (e.g. backend="mjx")."""
   factory = TASKS.factory(name)
   config = ml_collections.ConfigDict(config if config is not None else factory.default_config())
@@ -40,12 +69,12 @@ def make_env(name: str, config: ml_collections.ConfigDict | None = None, **overr
   return factory(config)
 
 
-def env_from_config(env_config: ml_collections.ConfigDict) -> manipulation.ManipulationEnv:
+def env_from_config(env_config: ml_collections.ConfigDict) -> ManipulationEnv:
   """The task a run's `config.env` names (task, backend, action_mode, episode_length, ...)."""
   return make_env(env_config.task, **{k: v for k, v in env_config.items() if k != "task"})
 
 
-register_env("lift", lift.Lift)
-register_env("can", can.Can)
-register_env("square", square.Square)
-register_env("transport", transport.Transport)
+register_env("lift", "soe_jax.envs.lift:Lift")
+register_env("can", "soe_jax.envs.can:Can")
+register_env("square", "soe_jax.envs.square:Square")
+register_env("transport", "soe_jax.envs.transport:Transport")

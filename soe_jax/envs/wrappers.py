@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from soe_jax.envs import mjx_import  # noqa: F401 (first: MJX quietly, before brax imports it)
+
+# isort: split
 import jax
 import jax.numpy as jnp
 from brax.envs.base import Env, State, Wrapper

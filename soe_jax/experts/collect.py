@@ -3,25 +3,30 @@
 from __future__ import annotations
 
 import functools
+import time
+from typing import TYPE_CHECKING
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import tqdm
 
-from soe_jax.data import episodes
-from soe_jax.envs import manipulation
+from soe_jax.data import episodes, hdf5
+from soe_jax.envs.registry import make_env
 from soe_jax.experts import registry as expert_registry
 from soe_jax.experts import script
 
+if TYPE_CHECKING:
+  from soe_jax.envs.manipulation import ManipulationEnv
 
-def recorded_keys(env: manipulation.ManipulationEnv) -> tuple[str, ...]:
+
+def recorded_keys(env: ManipulationEnv) -> tuple[str, ...]:
   """The observations a demonstration keeps: the policy's, and each robot's joint positions."""
   return env.policy_obs_keys + tuple(f"robot{k}_joint_pos" for k in range(env.num_robots))
 
 
 @functools.lru_cache(maxsize=8)
-def _chunk_fn(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert | script.BimanualExpert, length: int):
+def _chunk_fn(env: ManipulationEnv, expert: script.ScriptedExpert | script.BimanualExpert, length: int):
   """One compiled chunk of `length` control steps of the batched environment and demonstrator."""
   step = jax.vmap(env.step)
   act = jax.vmap(expert.act)
@@ -48,7 +53,7 @@ def _chunk_fn(env: manipulation.ManipulationEnv, expert: script.ScriptedExpert |
 
 
 def run_demos(
-  env: manipulation.ManipulationEnv,
+  env: ManipulationEnv,
   expert: script.ScriptedExpert | script.BimanualExpert,
   keys: jax.Array,
   chunk: int = 50,
@@ -103,11 +108,36 @@ def split_episodes(batch: dict, only_successful: bool = True) -> list[dict]:
   )
 
 
-def demonstrations(env: manipulation.ManipulationEnv, num: int, seed: int, progress: bool = True) -> list[dict]:
+def demonstrations(env: ManipulationEnv, num: int, seed: int, progress: bool = True) -> list[dict]:
   """`num` successful scripted demonstrations, from the first start states of `seed` (2 * num tried)."""
-  keys = jax.random.split(jax.random.PRNGKey(seed), 2 * num)  # spare start states
+  keys = jax.random.split(jax.random.key(seed), 2 * num)  # spare start states
   batch = run_demos(env, expert_registry.make_expert(env.name), keys, progress=progress)
   found = split_episodes(batch, only_successful=True)
   if len(found) < num:
     raise RuntimeError(f"the {env.name} demonstrator succeeded {len(found)} times in {2 * num} tries; need {num}")
   return found[:num]
+
+
+def record(task: str, num_episodes: int, seed: int = 0, out: str | None = None, backend: str = "auto") -> dict:
+  """Scripted demonstrations of `task` from `num_episodes` start states of `seed`, the successful ones
+  written to `out` in robomimic's HDF5 layout when given -> {task, num_episodes, success_rate,
+  mean_length (of the successful ones), backend, seconds[, out, num_saved]}."""
+  env = make_env(task, backend=backend)
+  expert = expert_registry.make_expert(task)
+  start = time.time()
+  batch = run_demos(env, expert, jax.random.split(jax.random.key(seed), num_episodes))
+  success = batch["success"]
+  result = dict(
+    task=task,
+    num_episodes=int(num_episodes),
+    success_rate=float(success.mean()),
+    mean_length=float(batch["length"][success].mean()) if success.any() else None,
+    backend=env.backend,
+    seconds=round(time.time() - start, 2),
+  )
+  if out:
+    found = split_episodes(batch)
+    meta = dict(env_name=task, env_kwargs=env.config.to_dict(), source="scripted demonstrator", seed=seed)
+    hdf5.write_episodes(out, found, meta)
+    result.update(out=out, num_saved=len(found))
+  return result

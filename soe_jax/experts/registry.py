@@ -1,8 +1,10 @@
-"""Scripted demonstrators by task name."""
+"""Scripted demonstrators by task name. The MuJoCo tasks' demonstrators read their task's constants, so
+they are imported when first made (the lazy registry, `soe_jax.registry`), not with this module."""
 
 from __future__ import annotations
 
-from soe_jax.experts import can, lift, script, square, transport
+from soe_jax import registry
+from soe_jax.experts import script
 from soe_jax.registry import Registry
 
 EXPERTS: Registry[script.ScriptedExpert | script.BimanualExpert] = Registry("scripted demonstrator")
@@ -15,7 +17,12 @@ def make_expert(name: str) -> script.ScriptedExpert | script.BimanualExpert:
   return EXPERTS.make(name)
 
 
-register_expert("lift", lambda: lift.EXPERT)
-register_expert("can", lambda: can.EXPERT)
-register_expert("square", lambda: square.EXPERT)
-register_expert("transport", lambda: transport.EXPERT)
+def scripted(where: str):
+  """The factory of the demonstrator "package.module:attribute" names, imported when first made."""
+  return lambda: registry.load(where)
+
+
+register_expert("lift", scripted("soe_jax.experts.lift:EXPERT"))
+register_expert("can", scripted("soe_jax.experts.can:EXPERT"))
+register_expert("square", scripted("soe_jax.experts.square:EXPERT"))
+register_expert("transport", scripted("soe_jax.experts.transport:EXPERT"))

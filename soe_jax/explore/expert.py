@@ -4,18 +4,19 @@ as a ceiling, not a method), and `demonstrate`, which the scripted chooser also 
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 import jax
 
-from soe_jax.envs import manipulation
 from soe_jax.experts import registry as expert_registry
 from soe_jax.experts import script
 from soe_jax.types import Strategy
 
+if TYPE_CHECKING:
+  from soe_jax.envs.manipulation import ManipulationEnv
 
-def demonstrate(
-  env: manipulation.ManipulationEnv, expert: script.ScriptedExpert | script.BimanualExpert, env_state, num_steps: int
-):
+
+def demonstrate(env: ManipulationEnv, expert: script.ScriptedExpert | script.BimanualExpert, env_state, num_steps: int):
   """The demonstrator's next `num_steps` actions (B, num_steps, A) from each environment's current
   state, resumed at the phase the scene shows, simulated on a copy of the state. Its random
   parameters come from the episode's reset key (as in the demonstrations), so they stay fixed."""
@@ -32,7 +33,7 @@ def demonstrate(
   return actions.swapaxes(0, 1)
 
 
-def task_env(strategy: str, env: manipulation.ManipulationEnv | None) -> manipulation.ManipulationEnv:
+def task_env(strategy: str, env: ManipulationEnv | None) -> ManipulationEnv:
   if env is None:
     raise ValueError(f"strategy {strategy!r} follows the task's demonstrator and needs its environment (env=...)")
   return env
@@ -40,7 +41,7 @@ def task_env(strategy: str, env: manipulation.ManipulationEnv | None) -> manipul
 
 @dataclasses.dataclass(frozen=True)
 class Expert(Strategy):
-  env: manipulation.ManipulationEnv = dataclasses.field(default=None, metadata=dict(setting=False))
+  env: ManipulationEnv = dataclasses.field(default=None, metadata=dict(setting=False))
   expert: script.ScriptedExpert | script.BimanualExpert = dataclasses.field(default=None, metadata=dict(setting=False))
   name = "expert"
 

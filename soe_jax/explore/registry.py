@@ -5,11 +5,14 @@ line below."""
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
-from soe_jax.envs import manipulation
 from soe_jax.explore import dp, expert, sime, soe, steer
 from soe_jax.registry import Registry
 from soe_jax.types import Strategy
+
+if TYPE_CHECKING:
+  from soe_jax.envs.manipulation import ManipulationEnv
 
 STRATEGIES: Registry[type[Strategy]] = Registry("exploration strategy", "strategies")
 register_strategy = STRATEGIES.register
@@ -22,14 +25,14 @@ def default_settings(name: str) -> dict:
   return {f.name: f.default for f in dataclasses.fields(cls) if f.init and f.metadata.get("setting", True)}
 
 
-def make_strategy(name: str, env: manipulation.ManipulationEnv | None = None, **settings) -> Strategy:
+def make_strategy(name: str, env: ManipulationEnv | None = None, **settings) -> Strategy:
   """Strategy `name` with `settings` (the rest at their defaults); `soe_steer` and `expert` follow the
   task's demonstrator and need the task's `env`."""
   check_settings(name, settings)
   return STRATEGIES.factory(name).create(env, **settings)
 
 
-def steering_strategy(strategy_config, env: manipulation.ManipulationEnv) -> steer.SoeSteer:
+def steering_strategy(strategy_config, env: ManipulationEnv) -> steer.SoeSteer:
   """`soe_steer` for steering a run by hand or analysing its latent: with the run's own settings
   (`explore.strategy`) where `soe_steer` has them (all of a soe_steer run's, a soe run's alpha), its
   defaults otherwise."""

@@ -6,17 +6,21 @@ that follows the task's demonstrator; the steering page puts a person in its pla
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 import jax
 import jax.numpy as jnp
 
-from soe_jax.envs import manipulation
+from soe_jax.envs import observations
 from soe_jax.experts import registry as expert_registry
 from soe_jax.experts import script
 from soe_jax.explore import expert as expert_strategy
 from soe_jax.explore import steering
 from soe_jax.policies import agent as agent_lib
 from soe_jax.types import Chooser, Strategy
+
+if TYPE_CHECKING:
+  from soe_jax.envs.manipulation import ManipulationEnv
 
 
 @dataclasses.dataclass(frozen=True)
@@ -25,13 +29,13 @@ class ScriptedChooser:
   arm's) are closest in mean L2 distance to the scripted demonstrator's next positions from the
   current state."""
 
-  env: manipulation.ManipulationEnv
+  env: ManipulationEnv
   expert: script.ScriptedExpert | script.BimanualExpert
 
   def __call__(self, candidates: jax.Array, env_state, key):
     """candidates (B, C, Ta, A) raw -> (index (B,), distance (B,))."""
     reference = expert_strategy.demonstrate(self.env, self.expert, env_state, candidates.shape[2])
-    positions = lambda a: manipulation.action_positions(a, self.env.num_robots)
+    positions = lambda a: observations.action_positions(a, self.env.num_robots)
     gap = jnp.linalg.norm(positions(candidates) - positions(reference)[:, None], axis=-1)  # (B, C, Ta, R)
     dist = jnp.mean(gap, axis=(-2, -1))
     return jnp.argmin(dist, axis=1), jnp.min(dist, axis=1)
@@ -61,7 +65,7 @@ def candidates(
     )
     chunks = agent.executed(agent.decode_chunk(z.reshape(b * num_proposals, d), key_head))
     chunks = chunks.reshape((b, num_proposals) + chunks.shape[1:])
-    paths = manipulation.action_positions(chunks, num_robots)
+    paths = observations.action_positions(chunks, num_robots)
     idx = jax.vmap(lambda p: steering.farthest_point_sampling(p, num_choices))(paths)
     chosen.append(jnp.take_along_axis(chunks, idx[:, :, None, None], axis=1))
   dim_of = jnp.repeat(jnp.asarray(dims, jnp.int32), num_choices)

@@ -15,7 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from soe_jax import buffer as buffer_lib
+from soe_jax.data import buffer as buffer_lib
 
 
 def signal_and_noise_db(mu: jax.Array, log_std: jax.Array) -> tuple[jax.Array, jax.Array]:

@@ -5,7 +5,7 @@ Every path from raw observations to raw actions goes through here: normalise the
 Diffusion Policy's chunk[To-1 : To-1+Ta] (B, Ta, A), which the rollout runs open loop; `chunk` is the
 whole predicted chunk. The observation history holds the last To policy observations, the first one
 repeated at reset: (B, To, D), or for an image policy {"lowdim": (B, To, D), "images": {key: (B, To,
-H, W, 3) uint8}} (`manipulation.policy_input`).
+H, W, 3) uint8}} (`observations.policy_input`).
 """
 
 from __future__ import annotations

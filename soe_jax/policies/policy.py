@@ -123,7 +123,7 @@ def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int
   if image_keys:
     shape = (1, config.n_obs_steps, image_size, image_size, 3)
     example = {"images": {k: jnp.zeros(shape) for k in image_keys}, "lowdim": example}
-  cond_dim = jax.eval_shape(lambda: encoder.init_with_output(jax.random.PRNGKey(0), example)[0]).shape[-1]
+  cond_dim = jax.eval_shape(lambda: encoder.init_with_output(jax.random.key(0), example)[0]).shape[-1]
   bp = config.bypass
   return Policy(
     head=head,

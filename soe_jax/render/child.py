@@ -42,6 +42,7 @@ def receive(stream):
 
 
 def serve(stdin, stdout) -> None:
+  # Here, not at the top: MuJoCo reads MUJOCO_GL when it is imported, and the pool sets it for the child.
   import mujoco
   import numpy as np
 

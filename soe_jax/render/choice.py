@@ -4,7 +4,8 @@ pool of processes on the host's cores (`pool`); `warp`, MuJoCo Warp's batch ray 
 
 from __future__ import annotations
 
-from soe_jax import accelerators
+from soe_jax.render.pool import Renderer
+from soe_jax.runtime import accelerators
 
 RENDERERS = ("gl", "warp")
 
@@ -27,9 +28,8 @@ def make(name: str, model, cameras, size: int):
   """The renderer `name` (`resolve`d) of `cameras` at size x size. The GL pool draws without
   multisampling: the images are the policy's input, and llvmpipe draws them 2x faster without."""
   if resolve(name) == "warp":
+    # Here, not at the top: the `gpu` extra's renderer, whose module imports MuJoCo and Warp.
     from soe_jax.render.warp_renderer import WarpRenderer
 
     return WarpRenderer(model, cameras, size)
-  from soe_jax.render.pool import Renderer
-
   return Renderer(model, cameras, size, samples=0)

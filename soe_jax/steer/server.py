@@ -17,9 +17,11 @@ from __future__ import annotations
 import json
 import sys
 import threading
+from collections.abc import Callable
 from http.server import BaseHTTPRequestHandler, HTTPServer
 
 from soe_jax.envs import panda
+from soe_jax.runtime.errors import UserError
 from soe_jax.steer.session import SteeringError, SteeringSession
 
 PAGE = """<!doctype html>
@@ -219,3 +221,31 @@ class Server(HTTPServer):
 def serve(session: SteeringSession, host: str = "127.0.0.1", port: int = 8765) -> HTTPServer:
   """The server, bound but not serving: call `serve_forever` (in a thread of its own if need be)."""
   return Server((host, port), make_handler(session))
+
+
+def run(
+  workdir: str,
+  r: int | None = None,
+  seed: int = 0,
+  host: str = "127.0.0.1",
+  port: int = 8765,
+  ready: Callable[[SteeringSession, str], None] = lambda session, address: None,
+) -> None:
+  """Serve the steering page of round r's policy (default: the last round's) of the run in `workdir`
+  until Ctrl-C: `ready(session, address)` once the policy is compiled and the first frame drawn."""
+  session = SteeringSession(workdir, r, seed)
+  try:
+    try:
+      httpd = serve(session, host, port)
+    except OSError as e:
+      raise UserError(f"cannot serve at {host}:{port}: {e.strerror or e}") from None
+    try:
+      session.warm()  # compiled and first frame rendered before the address is given
+      ready(session, f"http://{host}:{httpd.server_address[1]}/")
+      httpd.serve_forever()
+    except KeyboardInterrupt:
+      pass  # the way to stop it
+    finally:
+      httpd.server_close()
+  finally:
+    session.close()

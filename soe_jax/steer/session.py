@@ -11,6 +11,7 @@ one raises `SteeringError` without changing anything.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import os
 import threading
@@ -21,17 +22,18 @@ import matplotlib.image
 import mujoco
 import numpy as np
 
-from soe_jax import checkpoint
 from soe_jax.data import hdf5
 from soe_jax.data.episodes import EpisodeSet, build_buffer
-from soe_jax.envs import manipulation, panda
+from soe_jax.envs import observations, panda
 from soe_jax.envs import registry as env_registry
+from soe_jax.experiment import task
+from soe_jax.experiment.rundir import RunDir
 from soe_jax.explore import registry as strategy_registry
-from soe_jax.explore import steering
 from soe_jax.policies import agent as agent_lib
 from soe_jax.policies.normalizer import lowdim
 from soe_jax.render.pool import Renderer
-from soe_jax.rundir import RunDir
+from soe_jax.runtime.errors import UserError
+from soe_jax.train import checkpoint
 
 IMAGE_SIZE = 384
 VIEWS = ("agentview", panda.EYE_IN_HAND)  # the page's views: the scene, and the wrist camera's
@@ -46,7 +48,11 @@ class SteeringSession:
     self.run = RunDir.open(workdir)
     self.workdir, self.config = self.run.path, self.run.config
     self.round = self.run.last_round() if round_ is None else int(round_)
-    loaded = checkpoint.load(self.run.checkpoint_dir(self.round))
+    if not self.run.has_checkpoint(self.round):
+      raise UserError(
+        f"{self.workdir}: round {self.round} has no policy yet; the last with one is {self.run.last_round()}"
+      )
+    loaded = checkpoint.load(self.run.checkpoint_dir(self.round), task.spec(self.config))
     self.policy, self.agent = loaded.policy, loaded.agent
     env_config = self.config.env.copy_and_resolve_references()
     env_config.backend = "mujoco"  # one environment, stepped and rendered in the C engine
@@ -58,9 +64,13 @@ class SteeringSession:
     # One program for every dimension (the dimension is an argument, not a constant).
     self._candidates = jax.jit(lambda agent, hist, key, dim: self.steer.candidates(agent, hist, key, (dim,)))
     buf = build_buffer(self.config, self.policy, [EpisodeSet(self.run.demonstrations(), 0)], self.env)
-    self.snr = np.asarray(self.steer.snr(self.agent, buf, jax.random.PRNGKey(0)))
+    # The dimensions as the strategy prepares them for a round, every effective one offered to a person
+    # (`max_dims` caps only the unattended chooser's).
+    prepared, extra = dataclasses.replace(self.steer, max_dims=0).prepare(self.agent, buf, jax.random.key(0))
+    self.snr = np.asarray(extra["snr_db"])
+    self.none_above_threshold = not prepared.dims
     # With no dimension above the threshold: the strongest (the page says it carries little signal).
-    self.dims = steering.effective_dims(self.snr, self.steer.threshold_db) or (int(np.argmax(self.snr)),)
+    self.dims = prepared.dims or (int(np.argmax(self.snr)),)
     self.image_size = image_size
     # The process that draws (started on first use): rendering stays out of this process, which compiles XLA.
     self.frames = Renderer(self.env.mj_model, VIEWS, image_size, processes=1)
@@ -79,8 +89,8 @@ class SteeringSession:
   # -- state ------------------------------------------------------------------------------------
   def reset(self, seed: int = 0) -> dict:
     self.seed = int(seed)
-    self.key = jax.random.fold_in(jax.random.PRNGKey(int(self.config.seed) + 7), self.seed)
-    self.state = self._reset(jax.random.split(jax.random.PRNGKey(self.seed), 1))
+    self.key = jax.random.fold_in(jax.random.key(int(self.config.seed) + 7), self.seed)
+    self.state = self._reset(jax.random.split(jax.random.key(self.seed), 1))
     self.hist = agent_lib.initial_history(self._policy_input(), self.policy.n_obs_steps)
     self.episode = dict(obs=[], next_obs=[], actions=[], states=[])
     self.eef = [self._hands()]
@@ -91,7 +101,7 @@ class SteeringSession:
     return self.view()
 
   def _policy_input(self):
-    return manipulation.policy_input(self.state.obs, self.policy.image_keys)
+    return observations.policy_input(self.state.obs, self.policy.image_keys)
 
   def _check_round(self, round_) -> None:
     if round_ is not None and int(round_) != self.round:
@@ -162,8 +172,8 @@ class SteeringSession:
     episodes = hdf5.read_episodes(path)[0] if os.path.exists(path) else []
     episodes.append(
       dict(
-        obs=manipulation.split_policy_obs(np.stack(self.episode["obs"]), self.env.num_robots),
-        next_obs=manipulation.split_policy_obs(np.stack(self.episode["next_obs"]), self.env.num_robots),
+        obs=observations.split_policy_obs(np.stack(self.episode["obs"]), self.env.num_robots),
+        next_obs=observations.split_policy_obs(np.stack(self.episode["next_obs"]), self.env.num_robots),
         actions=np.stack(self.episode["actions"]),
         states=np.stack(self.episode["states"]),
         success=self.success,
@@ -215,7 +225,7 @@ class SteeringSession:
     props = []
     if self.proposal_set is not None:
       dim, cands, token = self.proposal_set
-      arms = lambda c: np.swapaxes(manipulation.action_positions(c, self.env.num_robots), 0, 1)  # (R, Ta, 3)
+      arms = lambda c: np.swapaxes(observations.action_positions(c, self.env.num_robots), 0, 1)  # (R, Ta, 3)
       props = [dict(id=f"{token}-{i}", paths=[self.project(p) for p in arms(c)]) for i, c in enumerate(cands)]
     return dict(
       round=self.round,
@@ -228,7 +238,7 @@ class SteeringSession:
       dims=[dict(dim=int(d), snr_db=round(float(self.snr[d]), 2)) for d in self.dims],
       snr=[dict(dim=i, snr_db=round(float(x), 2), offered=i in self.dims) for i, x in enumerate(self.snr)],
       threshold_db=float(self.steer.threshold_db),
-      none_above_threshold=bool(self.snr.max() <= self.steer.threshold_db),
+      none_above_threshold=self.none_above_threshold,
       steps_per_proposal=int(self.policy.n_action_steps),
       last_saved=self.last_saved,
       used_in_fit=self.used_in_fit,

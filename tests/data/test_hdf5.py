@@ -97,7 +97,8 @@ def _check_robomimic_layout(path, obs_keys):
     return meta, masks
 
 
-def test_the_written_file_is_what_robomimic_reads_and_masks_choose_episodes(tmp_path):
+def test_robomimic_reads_the_file_and_its_masks_choose_episodes(tmp_path):
+  """The written file is what robomimic reads, and its masks choose episodes."""
   rng = np.random.default_rng(1)
   episodes = [_episode(rng, t) for t in (4, 6, 8, 10)]
   del episodes[2]["next_obs"]  # an episode from an older file: next_obs is the following step's obs
@@ -119,7 +120,7 @@ def test_the_written_file_is_what_robomimic_reads_and_masks_choose_episodes(tmp_
   assert not (tmp_path / "bad.hdf5").exists()
 
 
-def test_camera_images_travel_under_robomimics_image_keys_as_uint8(tmp_path):
+def test_images_travel_under_robomimics_image_keys_as_uint8(tmp_path):
   rng = np.random.default_rng(0)
   images = rng.integers(0, 256, (5, 84, 84, 3), np.uint8)
   ep = dict(

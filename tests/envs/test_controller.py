@@ -63,7 +63,7 @@ def test_controller_reaches_reachable_target_smoothly(jitted_env):
 
 
 def test_delta_mode_moves_by_its_scale():
-  from soe_jax.envs import make_env
+  from soe_jax.envs.registry import make_env
 
   env = make_env("lift", action_mode="delta")
   state = jax.jit(env.reset)(jax.random.PRNGKey(0))

@@ -6,10 +6,10 @@ import jax
 import numpy as np
 import pytest
 
-from soe_jax.envs import env_names, make_env
+from soe_jax.envs.registry import env_names, make_env
 from soe_jax.experts import collect
 from soe_jax.experts import registry as expert_registry
-from tests.test_render import needs_egl
+from tests.render.test_render import needs_egl
 
 pytestmark = needs_egl
 # robomimic's image keys: transport's shoulder and wrist cameras, the agent view and wrist camera otherwise.
@@ -24,7 +24,7 @@ IMAGE_KEYS = {
 
 
 @pytest.mark.parametrize("task", [t if t == "lift" else pytest.param(t, marks=pytest.mark.slow) for t in env_names()])
-def test_image_observations_have_robomimics_keys_shapes_and_dtype(task):
+def test_image_obs_have_robomimics_keys_shapes_and_dtype(task):
   env = make_env(task, obs_mode="image", backend="mujoco")
   reset = jax.jit(jax.vmap(env.reset))
   a, b = reset(jax.random.split(jax.random.PRNGKey(3), 2)), reset(jax.random.split(jax.random.PRNGKey(3), 2))
@@ -50,7 +50,8 @@ def _changed_mask(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize(
   "task", ["lift", pytest.param("can", marks=pytest.mark.slow), pytest.param("square", marks=pytest.mark.slow)]
 )
-def test_the_wrist_camera_sees_the_object_from_above_and_the_agent_view_sees_the_arm(task):
+def test_wrist_camera_sees_the_object_agent_view_sees_the_arm(task):
+  """The wrist camera sees the object from above, and the agent view sees the arm."""
   env = make_env(task, obs_mode="image", backend="mujoco")
   demo = collect.run_demos(
     env, expert_registry.make_expert(task), jax.random.split(jax.random.PRNGKey(0), 1), progress=False
@@ -74,13 +75,14 @@ def test_the_wrist_camera_sees_the_object_from_above_and_the_agent_view_sees_the
 
 
 def test_the_video_command_names_the_tasks_cameras():
-  from soe_jax import video
   from soe_jax.envs import manipulation
+  from soe_jax.experiment import video
 
   assert video.CAMERAS == manipulation.CAMERAS
 
 
-def test_images_drawn_from_an_episodes_states_are_the_ones_its_steps_observed():
+def test_images_drawn_from_an_episodes_states_are_those_observed():
+  """Images drawn from an episode's states are the ones its steps observed."""
   from soe_jax.data.episodes import draw_images
   from soe_jax.envs import manipulation
 

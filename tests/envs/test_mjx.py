@@ -5,9 +5,10 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from configs import common
-from soe_jax import validation
-from soe_jax.envs import agreement, make_env, physics, wrap_env
+from soe_jax.envs import agreement, backends, physics
+from soe_jax.envs.registry import make_env
+from soe_jax.envs.wrappers import wrap_env
+from soe_jax.experiment import presets, validation
 from soe_jax.experts import collect
 from soe_jax.experts.registry import expert_names, make_expert
 
@@ -22,14 +23,14 @@ def test_unknown_implementation_lists_the_known_ones():
 
 
 def test_warp_without_warp_lang_says_how_to_install_it(monkeypatch):
-  monkeypatch.setattr(physics, "warp_installed", lambda: False)
+  monkeypatch.setattr(backends, "warp_installed", lambda: False)
   with pytest.raises(ValueError, match=r"pip install 'soe_jax\[gpu\]'"):
-    physics.resolve_mjx_impl("warp")
-  assert physics.resolve_mjx_impl("auto") == "jax"  # auto falls back to MJX-JAX
+    backends.resolve_mjx_impl("warp")
+  assert backends.resolve_mjx_impl("auto") == "jax"  # auto falls back to MJX-JAX
 
 
 def test_config_problems_name_bad_mjx_fields():
-  config = common.base_config("lift", 3)
+  config = presets.base_config("lift", 3)
   config.env.backend, config.env.mjx_impl, config.env.mjx_settings = "mjx", "tpu", "iterations=ten"
   found = "\n".join(validation.problems(config))
   assert "unknown MJX implementation 'tpu'" in found
@@ -42,12 +43,12 @@ def test_config_problems_name_bad_mjx_fields():
 
 def test_settings_replace_solver_options_for_mjx_alone():
   task_default = {"iterations": 10}
-  assert physics.parse_settings("", task_default) == task_default
-  assert physics.parse_settings("engine", task_default) == {}
-  settings = physics.parse_settings("iterations=5,ls_iterations=8,cone=pyramidal", task_default)
+  assert backends.parse_settings("", task_default) == task_default
+  assert backends.parse_settings("engine", task_default) == {}
+  settings = backends.parse_settings("iterations=5,ls_iterations=8,cone=pyramidal", task_default)
   assert settings == {"iterations": 5, "ls_iterations": 8, "cone": "pyramidal"}
   with pytest.raises(ValueError, match="unknown cone 'round'"):
-    physics.parse_settings("cone=round", {})
+    backends.parse_settings("cone=round", {})
   env = make_env("lift", backend="mujoco")
   m = physics.apply_settings(env.mj_model, settings)
   assert (m.opt.iterations, m.opt.ls_iterations, m.opt.cone) == (5, 8, physics.CONES["pyramidal"])
@@ -62,7 +63,7 @@ def test_warp_buffers_cover_the_demonstrators_contacts(task):
   any state of its scripted demonstrations has (in the MJX scene's settings), with a margin of 1.5."""
   env = make_env(task, backend="mujoco")
   batch = collect.run_demos(env, make_expert(task), jax.random.split(jax.random.PRNGKey(0), 16), progress=False)
-  settings = physics.parse_settings("", env.mjx_settings)
+  settings = backends.parse_settings("", env.mjx_settings)
   peak = agreement.peak_usage(physics.apply_settings(env.mj_model, settings), batch["states"], batch["length"])
   assert 1.5 * peak["contacts"] <= env.mjx_contacts, peak
   assert 1.5 * peak["constraints"] <= env.mjx_constraints, peak

@@ -5,7 +5,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from soe_jax.envs import agreement, env_names, make_env, rotations, wrap_env
+from soe_jax.envs import agreement, rotations
+from soe_jax.envs.registry import env_names, make_env
+from soe_jax.envs.wrappers import wrap_env
 
 
 def _hold(obs):

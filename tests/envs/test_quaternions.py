@@ -7,13 +7,14 @@ import jax
 import numpy as np
 import pytest
 
-from configs import common
-from soe_jax import checkpoint, rollout
 from soe_jax.data import hdf5
-from soe_jax.envs import policy_obs, rotations
+from soe_jax.envs import rotations
+from soe_jax.envs.observations import policy_obs
+from soe_jax.experiment import presets
+from soe_jax.experiment import task as task_lib
 from soe_jax.experts import collect
 from soe_jax.experts.registry import expert_names, make_expert
-from soe_jax.explore import registry
+from soe_jax.explore import registry, rollout
 from soe_jax.policies import normalizer as normalizer_lib
 from soe_jax.policies.agent import Agent
 
@@ -72,8 +73,8 @@ def test_quaternions_are_continuous_along_scripted_episodes(task, jitted_env):
 )
 def test_quaternions_are_continuous_along_policy_rollouts(task, jitted_env, task_env):
   env = task_env(task, episode_length=20)  # lift's: the rollout tests' environment and programs
-  config = common.apply_presets(common.base_config(task, 4), "smoke")
-  policy = checkpoint.policy_from_config(config)
+  config = presets.apply_presets(presets.base_config(task, 4), "smoke")
+  policy = task_lib.policy(config)
   _, batch = _demos(task, jitted_env)
   frames = np.asarray(policy_obs(batch["obs"], xp=np))[:, :30]
   actions = batch["actions"][:, :30]
@@ -95,7 +96,8 @@ def test_quaternions_are_continuous_along_policy_rollouts(task, jitted_env, task
   assert (jump < 0.2).mean() > 0.95
 
 
-def test_a_file_with_other_quaternion_signs_reads_back_in_the_tasks_convention(tmp_path, jitted_env):
+def test_other_quaternion_signs_read_back_in_tasks_convention(tmp_path, jitted_env):
+  """A file with other quaternion signs reads back in the task's sign convention."""
   env, batch = _demos("square", jitted_env)
   episodes = collect.split_episodes(batch)
   rng = np.random.default_rng(0)

@@ -5,8 +5,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from soe_jax.envs import can, env_names, lift, make_env, panda, rotations, square, transport
-from soe_jax.envs.manipulation import policy_obs, pose_action, split_policy_obs
+from soe_jax.envs import can, lift, panda, rotations, square, transport
+from soe_jax.envs.observations import policy_obs, pose_action, split_policy_obs
+from soe_jax.envs.registry import env_names, make_env
 
 TASKS = env_names()
 OBS_SIZES = {"lift": 19, "can": 23, "square": 23, "transport": 59}
@@ -200,7 +201,7 @@ def test_transport_success_needs_both_objects_on_their_plates(jitted_env):
   np.testing.assert_array_equal(state.obs["object"][-2:], [1, 1])  # payload_in_target_bin, trash_in_trash_bin
 
 
-def test_two_robot_policy_observations_split_back_into_robomimics_keys(jitted_env):
+def test_two_robot_policy_obs_split_back_into_robomimics_keys(jitted_env):
   env, reset, _ = jitted_env("transport")
   obs = reset(jax.random.PRNGKey(0)).obs
   vector = np.asarray(policy_obs(obs))

@@ -1,9 +1,14 @@
-"""The scripted demonstrators run batched under jit and solve the task; variety and determinism."""
+"""The scripted demonstrators run batched under jit and solve the task; variety and determinism; and
+`python -m soe_jax experts`."""
+
+import json
 
 import jax
 import numpy as np
 import pytest
 
+from soe_jax.commands import experts as experts_command
+from soe_jax.data import hdf5
 from soe_jax.experts import collect, transport
 from soe_jax.experts.registry import EXPERTS, make_expert
 
@@ -76,7 +81,7 @@ def test_transport_demonstrator_resumes_mid_episode(jitted_env):
     assert finished.all(), (steps, resumed[0].phase, resumed[1].phase)
 
 
-def test_a_resumed_expert_moves_at_constant_speed_from_its_first_step(jitted_env):
+def test_a_resumed_expert_moves_at_constant_speed_at_once(jitted_env):
   """Resumed at every decision, a minimum-jerk start (at rest) would slow every move several-fold; a
   resumed expert's first motion is linear, the demonstrations' motions stay minimum-jerk."""
   import dataclasses
@@ -98,3 +103,24 @@ def test_a_resumed_expert_moves_at_constant_speed_from_its_first_step(jitted_env
   assert linear.min() > 1e-3 and np.ptp(linear) < 1e-6  # the same step every step
   jerk = steps(resumed.replace(linear=np.asarray(False)))
   assert jerk[0] < 0.5 * linear[0]  # a minimum-jerk start creeps (about a quarter of the speed here)
+
+
+def test_the_experts_command_saves_the_successful_demonstrations(tmp_path, capsys):
+  out = str(tmp_path / "lift.hdf5")
+  experts_command.FLAGS.unparse_flags()
+  experts_command.main(
+    ["python -m soe_jax experts", "--task=lift", "--num_episodes=2", "--backend=mujoco", f"--out={out}"]
+  )
+  result = json.loads(capsys.readouterr().out.splitlines()[-1])
+  assert result["task"] == "lift" and result["num_episodes"] == 2 and result["backend"] == "mujoco"
+  episodes, env_args = hdf5.read_episodes(out)
+  assert result["num_saved"] == len(episodes) == round(2 * result["success_rate"]) and result["out"] == out
+  assert env_args["soe_jax"]["env_name"] == "lift" and env_args["soe_jax"]["seed"] == 0
+
+
+def test_the_experts_command_refuses_an_unknown_task_in_one_line(capsys):
+  experts_command.FLAGS.unparse_flags()
+  with pytest.raises(SystemExit) as exit:
+    experts_command.main(["python -m soe_jax experts", "--task=stack"])
+  err = capsys.readouterr().err
+  assert exit.value.code == 2 and err.startswith("error: flag --task=stack") and err.count("\n") == 1

@@ -35,7 +35,8 @@ def _greedy_reference(paths, num, first=0):
   return chosen
 
 
-def test_farthest_point_sampling_matches_brute_force_and_never_repeats():
+def test_farthest_points_match_brute_force_and_never_repeat():
+  """Farthest point sampling matches brute force and never repeats a point."""
   for seed in range(5):
     paths = jax.random.normal(jax.random.PRNGKey(seed), (12, 8, 3))
     got = [int(i) for i in steering.farthest_point_sampling(paths, 5)]
@@ -63,11 +64,11 @@ def test_dimension_proposals_vary_only_that_dimension():
 def test_two_robots_paths_are_compared_arm_by_arm():
   """(P, T, R, 3) paths: the distance is each arm's mean distance, averaged over the arms; an action's
   positions are the first 3 numbers of each robot's block."""
-  from soe_jax.envs import manipulation
+  from soe_jax.envs import observations
 
   rng = np.random.default_rng(0)
   actions = jnp.asarray(rng.normal(size=(5, 8, 20)), jnp.float32)
-  paths = manipulation.action_positions(actions, 2)
+  paths = observations.action_positions(actions, 2)
   np.testing.assert_array_equal(paths[:, :, 1], actions[:, :, 10:13])
   per_arm = [steering.path_distances(paths[:, :, k]) for k in range(2)]
   np.testing.assert_allclose(steering.path_distances(paths), (per_arm[0] + per_arm[1]) / 2, rtol=1e-5)

@@ -68,13 +68,14 @@ def test_sime_noise_is_raw_scale_converted_per_dimension():
   assert not np.allclose(cond_fn(cond[:2], 3, jax.random.PRNGKey(1)), cond_fn(cond[:2], 3, jax.random.PRNGKey(2)))
 
 
-def test_sime_on_an_image_policy_puts_one_scale_on_the_whole_conditioning():
+def test_sime_on_images_puts_one_scale_on_the_whole_conditioning():
+  """SIME on an image policy puts one scale on the whole conditioning."""
   from configs import lift
-  from soe_jax import checkpoint
+  from soe_jax.experiment import task
 
   config = lift.get_config("smoke,image,sime")
   assert config.explore.strategy.kwargs.scale == 0.5  # SIME's scale for image tasks
-  policy = checkpoint.policy_from_config(config)
+  policy = task.policy(config)
   assert policy.image_keys == ("agentview_image", "robot0_eye_in_hand_image")
   assert policy.cond_dim == 2 * (2 * 64 + policy.obs_dim)  # per frame: 64 features per camera, then the vector
   norm = _agent(_policy()).normalizer  # (its scales play no part here)
@@ -161,7 +162,8 @@ def test_steering_candidates_vary_one_dimension_and_are_distinct():
       assert len({tuple(np.round(p, 6)) for p in paths}) == 4
 
 
-def test_steer_picks_the_candidate_the_chooser_names_and_only_every_kth_decision():
+def test_steer_picks_the_chosen_candidate_at_every_kth_decision():
+  """Steer picks the candidate the chooser names, and only at every k-th decision (the base path between)."""
   policy = _policy()
   agent = _agent(policy)
   obs = jax.random.uniform(jax.random.PRNGKey(3), (2, 2, OBS_DIM), minval=0, maxval=2)
@@ -192,7 +194,7 @@ def test_effective_dims_are_ordered_by_snr():
 
 
 def test_steering_prepare_picks_the_effective_dims_of_the_data():
-  from soe_jax import buffer
+  from soe_jax.data import buffer
 
   policy = _policy()
   agent = _agent(policy)
@@ -210,7 +212,8 @@ def test_steering_prepare_picks_the_effective_dims_of_the_data():
 
 
 @pytest.mark.parametrize("name", registry.strategy_names())
-def test_every_strategy_is_built_from_its_default_settings_and_refuses_others(name):
+def test_every_strategy_builds_from_its_defaults_refusing_others(name):
+  """Every strategy is built from its default settings, and refuses other settings."""
   settings = registry.default_settings(name)
   strategy = registry.make_strategy(name, _env(), **settings)
   assert strategy.name == name
@@ -220,7 +223,7 @@ def test_every_strategy_is_built_from_its_default_settings_and_refuses_others(na
 
 
 def _env():
-  from soe_jax.envs import make_env
+  from soe_jax.envs.registry import make_env
 
   return make_env("lift")
 

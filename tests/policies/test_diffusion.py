@@ -48,7 +48,7 @@ def test_ddim_with_all_steps_and_eta_one_behaves_like_ddpm():
   assert spread[0] < spread[1] < spread[2] and abs(spread[2] - std) < 0.01
 
 
-def test_sampling_is_a_pure_function_of_the_key_and_calls_the_hook():
+def test_sampling_is_a_pure_function_of_the_key_calling_the_hook():
   sched = diffusion.Schedule.create(100)
   denoise = _exact_eps(sched, 0.0, 0.5)
   calls = []

@@ -4,7 +4,7 @@ observations, and the out-of-range fraction."""
 import jax.numpy as jnp
 import numpy as np
 
-from soe_jax.envs import manipulation
+from soe_jax.envs import observations
 from soe_jax.policies import normalizer
 
 
@@ -41,21 +41,21 @@ def test_two_robots_positions_are_normalised_in_each_block():
   np.testing.assert_allclose(a[:, kept], actions[:, kept], atol=1e-6)
 
 
-def test_an_observation_far_outside_the_demonstrations_is_not_clipped():
+def test_an_observation_far_outside_the_demos_is_not_clipped():
   obs, _, norm = _fit()
   far = obs[:1].copy()
   far[0, 0] = 3.0  # the demonstrations span [0, 1]: 1.2 with the margin, centred at 0.5
   np.testing.assert_allclose(np.asarray(norm.normalize_obs(far))[0, 0], (3.0 - 0.5) * 2 / 1.2, rtol=1e-5)  # 4.17
 
 
-def test_span_floors_bound_the_gain_of_a_dimension_that_barely_moved():
+def test_span_floors_bound_the_gain_of_a_barely_moving_dimension():
   obs, _, norm = _fit(min_span=np.array([0.5, 0.5, 0.5]))
   scale = np.asarray(norm.obs_scale)
   np.testing.assert_allclose(scale[:2], [2 / 1.2, 2 / 12.0], rtol=1e-5)  # wider than the floor: as before
   np.testing.assert_allclose(scale[2], 2 / 0.5, rtol=1e-6)  # constant: the floor's gain, 4
   np.testing.assert_allclose(np.asarray(norm.normalize_obs(obs))[:, 2], 0.0, atol=1e-6)  # centred
   # The tasks' floors: no policy-observation dimension gets a gain beyond 2 / its kind's span.
-  assert max(2 / s for s in manipulation.MIN_SPAN.values()) == 50.0
+  assert max(2 / s for s in observations.MIN_SPAN.values()) == 50.0
 
 
 def test_out_of_range_fraction_on_a_hand_made_batch():
@@ -68,7 +68,8 @@ def test_out_of_range_fraction_on_a_hand_made_batch():
   assert abs(float(norm.out_of_range_fraction(batch, acted)) - 1 / 18) < 1e-6
 
 
-def test_image_observations_keep_their_low_dim_scaling_and_map_pixels_to_the_unit_interval():
+def test_image_obs_keep_low_dim_scaling_and_map_pixels_to_0_1():
+  """Image observations keep their low-dim scaling and map pixels to the unit interval [0, 1]."""
   obs = np.array([[0.0, 10.0], [1.0, 20.0]])
   norm = normalizer.fit(obs, np.zeros((2, 4)), margin=0.0)
   images = np.array([[[[0, 128, 255]]]], np.uint8)  # (1, 1, 1, 3)

@@ -91,7 +91,7 @@ def test_bypass_does_not_change_the_base_policy_and_loss_falls():
 
 
 @pytest.mark.slow
-def test_the_ib_path_on_a_sub_batch_is_its_loss_on_the_first_rows():
+def test_the_ib_path_on_a_sub_batch_is_its_loss_on_first_rows():
   full = make_policy(_config(), 5, 3)
   quarter = make_policy(_config(bypass=dict(batch_fraction=0.25)), 5, 3)
   params, batch, key = full.init(jax.random.PRNGKey(0)), _batch(jax.random.PRNGKey(1), b=8), jax.random.PRNGKey(2)

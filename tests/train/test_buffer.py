@@ -5,7 +5,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from soe_jax import buffer
+from soe_jax.data import buffer
 
 
 def _episodes(lengths, d=2, a=1, max_length=30):
@@ -66,7 +66,8 @@ def _frame_images(lengths, size=4):
   return out
 
 
-def test_images_are_stored_unpadded_and_windows_read_the_frames_of_their_observations():
+def test_images_stored_unpadded_and_windows_read_their_frames():
+  """Images are stored unpadded, and each window reads the frames of its observations."""
   lengths = [20, 9, 14]
   buf = buffer.create(4, 30, 2, 1)
   obs, actions, length = _episodes(lengths)

@@ -11,11 +11,12 @@ import numpy as np
 import pytest
 
 from configs import lift
-from soe_jax import buffer as buffer_lib
-from soe_jax import checkpoint, fit, train_state
+from soe_jax.data import buffer as buffer_lib
+from soe_jax.experiment import task
 from soe_jax.policies import normalizer
 from soe_jax.policies.agent import Agent
 from soe_jax.policies.policy import make_policy
+from soe_jax.train import checkpoint, fit, train_state
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -53,29 +54,58 @@ def test_fit_runs_in_chunks_loss_falls_and_ema_tracks():
   assert max(diff) > 0  # the EMA lags the parameters
 
 
-def test_checkpoint_restores_to_identical_samples(tmp_path):
+_LOAD_WITHOUT_TASKS = """
+import json, sys
+import numpy as np
+sys.modules["soe_jax.envs"] = None  # the simulator's tasks cannot be imported
+import jax
+from soe_jax.train import checkpoint
+loaded = checkpoint.load({path!r})
+obs = np.asarray(json.loads(sys.stdin.read()), np.float32)
+print(json.dumps(np.asarray(loaded.agent.act(obs, jax.random.PRNGKey(5))).tolist()))
+"""
+
+
+def test_checkpoint_loads_without_task_registry_to_same_samples(tmp_path):
+  """A checkpoint loads without the task registry and gives identical samples."""
   config, policy, tx, state, buf = _setup()
   state, _ = fit.fit(policy, tx, state, buf, jax.random.PRNGKey(1), 20, config.fit, progress=False)
-  checkpoint.save(str(tmp_path / "ckpt"), state, config)
-  loaded = checkpoint.load(str(tmp_path / "ckpt"))
-  obs = jnp.asarray(np.asarray(buf.obs[:3, :2]))
-  direct = Agent.from_state(policy, state).act(obs, jax.random.PRNGKey(5))
-  acted = loaded.agent.act(obs, jax.random.PRNGKey(5))
-  assert acted.shape == (3, policy.n_action_steps, policy.action_dim)  # the executed actions
-  np.testing.assert_array_equal(acted, direct)
-  assert int(loaded.state.step) == 20
+  path = str(tmp_path / "ckpt")
+  checkpoint.save(path, state, config, task.spec(config))
+  obs = np.asarray(buf.obs[:3, :2])
+  direct = np.asarray(Agent.from_state(policy, state).act(jnp.asarray(obs), jax.random.PRNGKey(5)))
+  assert direct.shape == (3, policy.n_action_steps, policy.action_dim)  # the executed actions
+  script = _LOAD_WITHOUT_TASKS.format(path=path)
+  proc = subprocess.run([sys.executable, "-c", script], input=json.dumps(obs.tolist()), capture_output=True, text=True,
+                        cwd=ROOT, timeout=300)  # fmt: skip
+  assert proc.returncode == 0, proc.stderr[-2000:]
+  np.testing.assert_array_equal(np.asarray(json.loads(proc.stdout), np.float32), direct)
+  loaded = checkpoint.load(path)
+  assert int(loaded.state.step) == 20 and loaded.spec == task.spec(config)
+
+
+def test_older_checkpoints_load_with_the_spec_or_are_refused(tmp_path):
+  """Format 2 (no spec.json) loads given the task's spec; format 1 is refused, naming why."""
+  config, policy, tx, state, _ = _setup()
+  path = str(tmp_path / "ckpt")
+  checkpoint.save(path, state, config, task.spec(config))
   with pytest.raises(FileNotFoundError, match="config.json"):
     checkpoint.load(str(tmp_path / "missing"))
-  os.remove(tmp_path / "ckpt" / checkpoint.FORMAT_FILE)  # as written before the format number existed
-  with pytest.raises(ValueError, match="has format 1, this code reads format 2.*without clipping"):
-    checkpoint.load(str(tmp_path / "ckpt"))
+  os.remove(os.path.join(path, "spec.json"))  # as written before checkpoints carried their spec
+  json.dump({"format": 2}, open(os.path.join(path, checkpoint.FORMAT_FILE), "w"))
+  with pytest.raises(ValueError, match="has no spec.json.*spec="):
+    checkpoint.load(path)
+  assert int(checkpoint.load(path, task.spec(config)).state.step) == 0
+  os.remove(os.path.join(path, checkpoint.FORMAT_FILE))  # as written before the format number existed
+  with pytest.raises(ValueError, match="has format 1, this code reads formats 2 and 3.*without clipping"):
+    checkpoint.load(path, task.spec(config))
 
 
 _CURVE = """
 import json, sys, jax
 sys.path.insert(0, {root!r}); sys.path.insert(0, {tests!r})
 from test_fit import _setup
-from soe_jax import fit
+from soe_jax.train import fit
 config, policy, tx, state, buf = _setup(ema=False)
 state, history = fit.fit(policy, tx, state, buf, jax.random.PRNGKey(1), 40, config.fit, progress=False)
 print(json.dumps(dict(devices=jax.device_count(), losses=[h["loss"] for h in history])))

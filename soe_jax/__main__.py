@@ -1,0 +1,48 @@
+"""`python -m soe_jax COMMAND [flags]`: every command of the project; `python -m soe_jax COMMAND --help`
+prints one command's flags. Listing the commands imports nothing of JAX or MuJoCo."""
+
+from __future__ import annotations
+
+import importlib
+import sys
+
+# name -> what it does (each is `soe_jax/commands/<name>.py`).
+COMMANDS = {
+  "run": "the self-improvement experiment: round 0, then rounds of explore, keep, re-fit, evaluate",
+  "compare": "exploration strategies side by side from one base policy (no re-fit)",
+  "campaign": "one task x one training seed of a comparison of methods, each run copied to results/",
+  "converge": "is round 0 converged? a fit, its in-fit evaluations and a paired continuation",
+  "latent": "the latent's SNR per dimension and its effective dimensions, and SOE's exploration from it",
+  "aggregate": "finished runs -> one table over tasks x methods, paired with round 0 and the control",
+  "results": "committed records under results/ -> tables; --docs regenerates the documents' tables",
+  "kept": "what the kept episodes of runs look like (lengths, spread, states), as a record",
+  "video": "a run's stored episodes drawn to MP4",
+  "steer": "steer a run's policy by hand in a local web page",
+  "experts": "scripted demonstrations of a task, optionally saved to HDF5",
+  "export": "a run's data as robomimic HDF5, Diffusion Policy zarr or RLDS",
+  "inspect": "what a data file (HDF5, zarr, RLDS) holds",
+  "bench": "performance benchmarks: env, mjx, fit, encoder, sample, rollout, torch",
+}
+
+
+def usage() -> str:
+  width = max(map(len, COMMANDS))
+  lines = [f"  {name:<{width}}  {what}" for name, what in COMMANDS.items()]
+  return "usage: python -m soe_jax COMMAND [flags]   (COMMAND --help: its flags)\n\ncommands:\n" + "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> None:
+  argv = list(sys.argv if argv is None else argv)
+  if len(argv) < 2 or argv[1] in ("-h", "--help", "help"):
+    print(usage())
+    sys.exit(0 if len(argv) >= 2 else 2)
+  name = argv[1]
+  if name not in COMMANDS:
+    print(f"error: unknown command {name!r}; known commands: {', '.join(COMMANDS)}", file=sys.stderr)
+    sys.exit(2)
+  command = importlib.import_module(f"soe_jax.commands.{name}")
+  command.main([f"python -m soe_jax {name}"] + argv[2:])
+
+
+if __name__ == "__main__":
+  main()

@@ -1,0 +1,135 @@
+"""Tables from committed results: a folder of records (`results/<study>/*.json`, each stating its
+`kind`: `records.TABLES` has a table per kind) or of the runs a campaign exported (`python -m soe_jax
+campaign`: the comparison of methods, `campaign_table`, the paper's claims tested on it,
+`soe_jax.analysis.claims`, and where its runs have several rounds the table of rounds and the claim of
+monotonic improvement, `soe_jax.analysis.over_rounds`).
+
+  python -m soe_jax results results/clean_inputs
+  python -m soe_jax results --docs     # every generated table and figure in RESULTS.md and BENCHMARKS.md
+
+In RESULTS.md and BENCHMARKS.md a generated table sits between `<!-- table: RESULTS_DIR -->` and
+`<!-- /table -->`; `--docs` (`docs`) rewrites each from its folder, and a test checks that they are
+current. `--docs` also draws each figure of rounds named by a line `<!-- figure: RESULTS_DIR PATH.png -->`.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+import re
+
+from soe_jax.analysis import aggregate, claims, over_rounds, records
+from soe_jax.analysis.tables import markdown, pct, spread
+from soe_jax.runtime import atomic
+
+
+def table(study: str) -> str:
+  """The table of the records in folder `study` (by their kind, `records.TABLES`), or of the runs a
+  campaign exported there (the comparison of methods, the paper's claims, and over rounds where the
+  runs have several)."""
+  paths = sorted(glob.glob(os.path.join(study, "*.json")))
+  if not paths:
+    if runs := aggregate.find_runs(study):
+      rows = aggregate.rows(runs)
+      md = campaign_table(rows) + "\n" + campaign_claims(rows)
+      return md + ("\n" + over_rounds.table(rows) if over_rounds.multi_round(rows) else "")
+    raise FileNotFoundError(f"no result records (*.json) or exported runs in {study!r}")
+  return records.table([(os.path.basename(p)[:-5], atomic.read_json(p)) for p in paths], study)
+
+
+def campaign_table(rows: list[dict]) -> str:
+  """A campaign's runs (`aggregate.rows`): the paper's Table I columns, mean ± standard deviation over
+  training seeds (Pass@k, jerk, rollouts and the episodes kept, with their mean length where recorded,
+  of the first exploration round; success on the evaluation
+  states before and after, after also pooled over seeds with its Wilson interval and episode count),
+  and each method's last round against its round 0 and against the control of each seed, paired
+  state by state (mean difference ± std over seeds; states gained / lost over all seeds; the CMH
+  p-value over (seed, state) pairs)."""
+  out = []
+  for r in rows:
+    v = r["per_seed"]
+    k, n, lo, hi = r["sr_after_pooled"]
+    pooled = f"{spread(v['sr_after'])} ({pct(k / n)} [{pct(lo)}, {pct(hi)}], n={n})" if n else "-"
+    kept_cell = spread(v["kept"], 1, "")
+    if kept_cell != "-" and (length := spread(v["kept_length"], 1, "")) != "-":
+      kept_cell += f" ({length} steps)"
+    out.append([
+      r["task"],
+      f"{r['method']}{r['variant'] and ' (' + r['variant'] + ')'}",
+      r["seeds"],
+      spread(v["pass_at_k"]),
+      spread(v["jerk"], 1, ""),
+      spread(v["rollouts"], 1, ""),
+      kept_cell,
+      spread(v["sr_before"]),
+      pooled,
+      spread(v["improvement_rel"], sign="+"),
+      r["vs_round0"],
+      r["vs_control"],
+    ])  # fmt: skip
+  header = ["task", "method", "seeds", "Pass@5", "avg. jerk (m/s^3)", "rollouts", "kept (mean length)", "success before",
+            "success after (pooled [95% CI], episodes)", "relative improvement",
+            "vs round 0: difference, gained / lost, p", "vs control: difference, gained / lost, p"]  # fmt: skip
+  return markdown(header, out)
+
+
+def campaign_claims(rows: list[dict]) -> str:
+  """Per task, the paper's comparative claims that the runs can test (`claims`), one line each."""
+  lines = []
+  for task in sorted({r["task"] for r in rows}):
+    lines += [f"- {task}: {c}" for c in claims.claims(rows, task) if ": not measured" not in c]
+    if (c := over_rounds.claim(rows, task)) is not None:
+      lines.append(f"- {task}: {c}")
+  return "\n".join(lines) + "\n"
+
+
+# A generated table in RESULTS.md or BENCHMARKS.md: between these lines, naming its results folder.
+_BEGIN = re.compile(r"^<!-- table: (\S+) -->$")
+# A generated figure of rounds (`over_rounds.figure`): this line names its results folder and its file.
+_FIGURE = re.compile(r"^<!-- figure: (\S+) (\S+) -->$")
+_END = "<!-- /table -->"
+DOCS = ("RESULTS.md", "BENCHMARKS.md")
+
+
+def regenerate(text: str) -> str:
+  """`text` with every generated table replaced by the one its results folder gives now."""
+  out, lines, i = [], text.splitlines(keepends=True), 0
+  while i < len(lines):
+    out.append(lines[i])
+    if m := _BEGIN.match(lines[i].rstrip("\n")):
+      end = next((j for j in range(i + 1, len(lines)) if lines[j].rstrip("\n") == _END), None)
+      begin = next((j for j in range(i + 1, end or len(lines)) if _BEGIN.match(lines[j].rstrip("\n"))), None)
+      if end is None or begin is not None:  # an unclosed marker would swallow the text up to the next table's end
+        raise ValueError(f"'{lines[i].strip()}' has no '{_END}' after it before the next table")
+      out += [table(m.group(1)), lines[end]]
+      i = end
+    i += 1
+  return "".join(out)
+
+
+def figures(text: str) -> list[str]:
+  """Draw every figure of rounds that `text` names (`<!-- figure: RESULTS_DIR PATH -->`); their paths."""
+  drawn = []
+  for line in text.splitlines():
+    if m := _FIGURE.match(line):
+      runs = aggregate.find_runs(m.group(1))
+      if not runs:
+        raise FileNotFoundError(f"{line.strip()}: no exported runs in {m.group(1)!r}")
+      over_rounds.figure(aggregate.rows(runs), m.group(2))
+      drawn.append(m.group(2))
+  return drawn
+
+
+def docs() -> list[str]:
+  """Regenerate every table of `DOCS` (paths from the repository's root) and draw their figures -> a
+  line per document and per figure drawn."""
+  lines = []
+  for path in DOCS:
+    old = open(path).read()
+    new = regenerate(old)
+    if new != old:
+      with open(path, "w") as f:
+        f.write(new)
+    lines.append(f"{path}: {'rewritten' if new != old else 'up to date'}")
+    lines += [f"{path}: drew {figure}" for figure in figures(new)]
+  return lines

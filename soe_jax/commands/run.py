@@ -1,0 +1,47 @@
+"""The self-improvement experiment.
+
+  python -m soe_jax run --config=configs/square.py[:PRESETS] [--config.a.b=v] [--workdir=DIR]
+
+Presets: `smoke`, `cpu`, method `dp | sime | soe | soe_steer | control`, `head=NAME` and the others
+`experiment/presets.py` lists. The workdir defaults to `runs/<task>-<method>-seed<k>`, with a short hash
+of the fields the command changes from its config file's, so the same command names the same run:
+running it again resumes after the last finished phase (the first line printed says whether it
+starts, resumes or has finished). A mistake in the config is one line on stderr and exit status 2,
+before anything is written; Ctrl-C (or SIGTERM) stops with the finished phases and the fit in progress
+saved, and exit status 130. The last line printed is the run's summary as one JSON object.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+
+from soe_jax.analysis import report
+from soe_jax.experiment import loop, rundir
+from soe_jax.runtime import cli, compile_cache, sharding
+
+FLAGS = cli.Flags()
+FLAGS.config_flag()
+FLAGS.string("workdir", None, "Run directory (default: runs/<task>-<method>-seed<k>[-<hash of the overrides>]).")
+FLAGS.boolean("progress", True, "Progress bars.")
+
+
+def _run(argv: list[str]) -> None:
+  cli.positional(argv, "0", "python -m soe_jax run --config=configs/<task>.py[:PRESETS]")
+  sharding.maybe_initialize_distributed()  # a multi-host run, when cluster variables describe one
+  compile_cache.enable()
+  config = FLAGS.config
+  workdir = FLAGS.workdir or rundir.default_workdir(config, FLAGS.config_file()[0])
+  try:
+    loop.run(config, workdir, progress=FLAGS.progress)
+  except KeyboardInterrupt:
+    print(f"\ninterrupted: what was done is saved in {workdir}; run the same command to resume", file=sys.stderr)
+    sys.exit(130)
+  summary = report.write(workdir)
+  print(f"report: {os.path.join(workdir, 'report.md')}")
+  print(json.dumps(summary))
+
+
+def main(argv: list[str] | None = None) -> None:
+  cli.run(_run, FLAGS, __doc__, argv, required=("config",))

@@ -1,0 +1,91 @@
+"""What a policy reads and writes, independent of where the data came from: the observation keys with
+their shapes and dtypes (which are camera images, height x width x 3 uint8), the action layout per arm,
+the frame the actions are in and the control rate. A checkpoint stores it as `spec.json` beside its
+state, so a policy loads without the simulator's task registry; a task fills it
+(`envs.registry.task_spec`), and so can a dataset of a robot's own.
+
+  {"observations": {"robot0_eef_pos": {"shape": [3], "dtype": "float32"}, ...,
+                    "agentview_image": {"shape": [84, 84, 3], "dtype": "uint8", "image": true}},
+   "actions": [[["position", 3], ["rotation_6d", 6], ["gripper", 1]]],   one list per arm, in order
+   "action_frame": "world", "control_hz": 20.0}
+
+The low-dimensional observation keys are concatenated in the order given (images are not); the action
+is the arms' blocks one after another.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+
+SPEC_FILE = "spec.json"
+ACTION_FRAMES = ("world", "delta")  # absolute poses in the world frame | robomimic's scaled increments
+
+
+@dataclasses.dataclass(frozen=True)
+class PolicySpec:
+  observations: dict  # key -> {"shape": [...], "dtype": str, "image": bool (absent: False)}
+  actions: list  # per arm: [[part, size], ...]
+  action_frame: str
+  control_hz: float
+
+  def __post_init__(self):
+    if self.action_frame not in ACTION_FRAMES:
+      raise ValueError(f"unknown action frame {self.action_frame!r}; known: {', '.join(ACTION_FRAMES)}")
+    sizes = {tuple(v.get("shape", ())) for k, v in self.observations.items() if v.get("image")}
+    if len(sizes) > 1:
+      raise ValueError(f"camera images of different shapes {sorted(sizes)}: one image size per policy")
+
+  @property
+  def lowdim_keys(self) -> tuple[str, ...]:
+    return tuple(k for k, v in self.observations.items() if not v.get("image"))
+
+  @property
+  def image_keys(self) -> tuple[str, ...]:
+    return tuple(k for k, v in self.observations.items() if v.get("image"))
+
+  @property
+  def obs_dim(self) -> int:
+    """The low-dimensional observation's size: the keys' sizes summed."""
+    return sum(math.prod(self.observations[k]["shape"]) for k in self.lowdim_keys)
+
+  @property
+  def action_dim(self) -> int:
+    return sum(size for arm in self.actions for _, size in arm)
+
+  @property
+  def image_shape(self) -> tuple[int, int] | None:
+    """(height, width) of the camera images, or None without images."""
+    keys = self.image_keys
+    return tuple(self.observations[keys[0]]["shape"][:2]) if keys else None
+
+  def to_dict(self) -> dict:
+    return dataclasses.asdict(self)
+
+  @classmethod
+  def from_dict(cls, d: dict, source: str = "spec") -> PolicySpec:
+    missing = [k for k in ("observations", "actions", "action_frame", "control_hz") if k not in d]
+    if missing:
+      raise ValueError(f"{source}: missing {', '.join(missing)}")
+    return cls(
+      observations={k: dict(v) for k, v in d["observations"].items()},
+      actions=[[list(p) for p in arm] for arm in d["actions"]],
+      action_frame=d["action_frame"],
+      control_hz=float(d["control_hz"]),
+    )
+
+
+def save(directory: str, spec: PolicySpec) -> None:
+  with open(os.path.join(directory, SPEC_FILE), "w") as f:
+    json.dump(spec.to_dict(), f, indent=2)
+
+
+def load(directory: str) -> PolicySpec | None:
+  """The spec saved in `directory`, or None where there is none."""
+  path = os.path.join(directory, SPEC_FILE)
+  if not os.path.exists(path):
+    return None
+  with open(path) as f:
+    return PolicySpec.from_dict(json.load(f), path)

@@ -1,0 +1,290 @@
+"""The phases of one run (`Experiment`): round r's fit, exploration and evaluation, each computed once
+and saved in the run directory with its record before the next starts (`rundir.RunDir.once`), with
+every key `fold_in(seed, round, stream)` so that a resumed run's numbers are an uninterrupted run's.
+`loop.run` strings them into rounds."""
+
+from __future__ import annotations
+
+import time
+
+import jax
+import jax.numpy as jnp
+import ml_collections
+import numpy as np
+
+from soe_jax import metrics
+from soe_jax.data.episodes import EpisodeSet, build_buffer, from_rollout
+from soe_jax.experiment import runlog, task, video
+from soe_jax.experiment import select as select_lib
+from soe_jax.experiment.rundir import RunDir
+from soe_jax.experts import collect
+from soe_jax.experts import registry as expert_registry
+from soe_jax.explore import registry as strategy_registry
+from soe_jax.explore import rollout
+from soe_jax.policies.agent import Agent
+from soe_jax.render.pool import RenderError
+from soe_jax.runtime import interrupt
+from soe_jax.train import checkpoint, train_state
+from soe_jax.train import fit as fit_lib
+
+# Per-round key streams.
+_FIT, _EXPLORE, _EVALUATE, _FIT_EVALUATE = 1, 2, 3, 4
+
+
+def start_keys(config: ml_collections.ConfigDict) -> dict:
+  """The seeds of the evaluation start states (fixed) and of each round's exploration start states."""
+  return dict(eval_seed=int(config.eval.seed), explore_seed=int(config.seed) + 1)
+
+
+def evaluation_starts(config: ml_collections.ConfigDict, n: int | None = None) -> jax.Array:
+  """The reset keys of the evaluation's `n` (default `eval.num_start_states`) start states: the same in
+  every round and for every method of a training seed (which states depends on the count)."""
+  return jax.random.split(jax.random.key(start_keys(config)["eval_seed"]), int(n or config.eval.num_start_states))
+
+
+def exploration_starts(config: ml_collections.ConfigDict, r: int) -> jax.Array:
+  """The reset keys of round r's exploration: `explore.num_start_states` start states, new each round,
+  the same for every method, each repeated `explore.tries` times (a state's tries adjacent)."""
+  seed = jax.random.fold_in(jax.random.key(start_keys(config)["explore_seed"]), r)
+  return jnp.repeat(jax.random.split(seed, int(config.explore.num_start_states)), int(config.explore.tries), axis=0)
+
+
+class Experiment:
+  """The pieces of one run that every phase uses. The task and the policy are shared by runs with the
+  same settings in one process, so their compiled programs are too."""
+
+  def __init__(self, config: ml_collections.ConfigDict, run_dir: RunDir, progress: bool = True, log=None):
+    self.config, self.dir, self.progress, self.log = config, run_dir, progress, log
+    self.env = task.env(config)
+    self.policy = task.policy(config)
+    self.spec = task.spec(config)
+    self.root = jax.random.key(int(config.seed))
+    self.timer = runlog.CompileTimer()
+    self._optimizers = {}
+
+  def optimizer(self, steps: int, lr: float):
+    """One optimiser object per schedule, so later rounds reuse the compiled fit chunks."""
+    if (steps, lr) not in self._optimizers:
+      self._optimizers[steps, lr] = train_state.make_optimizer(self.config.fit, steps, lr)
+    return self._optimizers[steps, lr]
+
+  def key(self, r: int, stream: int):
+    return jax.random.fold_in(jax.random.fold_in(self.root, r), stream)
+
+  def agent(self, state) -> Agent:
+    return Agent.from_state(self.policy, state)
+
+  def rollout(self, state, strategy, reset_keys, key, desc: str, progress: bool | None = None) -> dict:
+    """One code path for evaluation and exploration."""
+    c = self.config.rollout
+    return rollout.rollout(
+      self.env,
+      self.agent(state),
+      strategy,
+      reset_keys,
+      key,
+      slice_size=int(c.slice_size) or None,
+      decisions_per_call=int(c.decisions_per_call),
+      progress=self.progress if progress is None else progress,
+      desc=desc,
+    )
+
+  def evaluate(self, state, r: int, num_states: int | None = None, key=None, progress: bool | None = None) -> dict:
+    """The base path from `num_states` (default `eval.num_start_states`) start states split from the
+    evaluation seed (which states depends on the count), sampling with `key` (default: the evaluation
+    key, the same in every round, so that rounds and methods are paired state by state)."""
+    return self._evaluate(state, r, num_states, key, progress)[0]
+
+  def _evaluate(self, state, r: int, num_states=None, key=None, progress=None) -> tuple[dict, dict]:
+    """(`evaluate`'s record, the rollout)."""
+    keys = evaluation_starts(self.config, num_states)
+    key = self.key(0, _EVALUATE) if key is None else key
+    out = self.rollout(state, strategy_registry.make_strategy("dp"), keys, key, f"round {r} evaluate", progress)
+    rec = dict(metrics.rollout_summary(out, 1, state.normalizer), success=out["success"].astype(int).tolist())
+    return rec, out
+
+  def shown(self, out: dict) -> list[dict]:
+    """A rollout's first `log.videos` episodes, to be watched."""
+    n = len(out["success"])
+    return from_rollout(out, np.arange(n) < int(self.config.log.videos), self.env.num_robots)
+
+  def explore(self, state, r: int, buf) -> tuple[dict, list[dict], list[dict]]:
+    """Round r's exploration with the configured strategy, prepared on the data in `buf` -> (record,
+    the episodes it adds to the data, its first episodes to be watched)."""
+    c = self.config.explore
+    strategy = strategy_registry.make_strategy(c.strategy.name, self.env, **c.strategy.kwargs)
+    strategy, extra = strategy.prepare(self.agent(state), buf, jax.random.fold_in(self.key(r, _EXPLORE), 1))
+    tries = int(c.tries)
+    reset_keys = exploration_starts(self.config, r)
+    out = self.rollout(state, strategy, reset_keys, self.key(r, _EXPLORE), f"round {r} explore ({c.strategy.name})")
+    max_length = None
+    if cap := float(self.config.rounds.length_cap):  # a multiple of the demonstrations' mean length
+      max_length = cap * np.mean([len(d["actions"]) for d in self.dir.demonstrations()])
+    shape = (-1, tries)
+    keep = select_lib.select(
+      out["success"].reshape(shape), out["length"].reshape(shape), self.config.rounds.select, max_length
+    ).reshape(-1)
+    rec = dict(
+      metrics.rollout_summary(out, tries, state.normalizer),
+      strategy=c.strategy.name,
+      num_episodes=int(keep.sum()),
+      kept_length_mean=float(out["length"][keep].mean()) if keep.any() else None,
+      max_kept_length=max_length,
+      success=out["success"].astype(int).tolist(),
+      **extra,
+    )
+    if "steered" in out["aux"]:
+      rec["steered_fraction"] = float(out["aux"]["steered"].mean())
+    if self.config.rounds.new_data == "expert":
+      return (*self.expert_episodes(reset_keys[keep], rec), self.shown(out))
+    return rec, from_rollout(out, keep, self.env.num_robots), self.shown(out)
+
+  def expert_episodes(self, reset_keys, rec: dict) -> tuple[dict, list[dict]]:
+    """The oracle's data: the scripted demonstrator's episodes from `reset_keys` (the start states an
+    exploration kept), run as the demonstrations are (one plan from the start state, not re-planned
+    at every decision as the `expert` strategy is: that one loses Square's nut on the peg's top), its
+    successful ones in place of the exploration's."""
+    n = int(reset_keys.shape[0])
+    rec = dict(rec, explored_episodes=rec["num_episodes"], num_episodes=0, expert_success_rate=None)
+    if n == 0:
+      return rec, []
+    expert = expert_registry.make_expert(self.env.name)
+    batch = collect.run_demos(self.env, expert, reset_keys, progress=self.progress)
+    ok = batch["success"].astype(bool)
+    return dict(rec, num_episodes=int(ok.sum()), expert_success_rate=float(ok.mean())), collect.split_episodes(batch)
+
+  def fit(self, buf, norm, r: int, init_state=None, steps: int | None = None):
+    """Round 0 / scratch: fresh parameters, `fit.num_steps` at `fit.lr`; continue: from `init_state`,
+    `rounds.refit_steps` at `rounds.refit_lr` (0: `fit.lr`), its EMA restarted from the parameters or
+    carried on (`rounds.refit_ema`). `steps` overrides the number of steps.
+    With `fit.eval_every`, the EMA policy is evaluated along the way (`eval_curve` in the record)."""
+    c = self.config
+    if init_state is None:
+      steps, lr = int(steps or c.fit.num_steps), float(c.fit.lr)
+      params = self.policy.init(jax.random.fold_in(self.key(r, _FIT), 0))
+    else:
+      steps, lr = int(steps or c.rounds.refit_steps), float(c.rounds.refit_lr or c.fit.lr)
+      params = init_state.params
+    tx = self.optimizer(steps, lr)
+    # fit donates its input state: build it from copies, so `norm` and `init_state` stay usable.
+    state = jax.tree.map(jnp.copy, train_state.create(params, tx, norm, ema=c.fit.ema))
+    if init_state is not None and c.rounds.refit_ema == "carry" and init_state.ema_params is not None:
+      # The EMA goes on from the previous fit's (its step too, so its decay does), as one long fit's would.
+      state = state.replace(ema_params=jax.tree.map(jnp.copy, init_state.ema_params), step=jnp.copy(init_state.step))
+    start, history = 0, []
+    if (partial := self.dir.partial_fit(r)) is not None:  # an interrupted fit: continue it
+      state, start, history = partial
+    chunks = lambda every: max(1, int(every) // int(c.fit.chunk_size)) if every else 0
+    save_every, eval_every = chunks(c.fit.checkpoint_every), chunks(c.fit.eval_every)
+    key = jax.random.fold_in(self.key(r, _FIT), 1)
+    with interrupt.deferred("stopping: saving the fit after the chunk in progress (again to stop now)") as stop:
+
+      def on_chunk(state, done, history):
+        n = done // int(c.fit.chunk_size)
+        if done == start + 2 * int(c.fit.chunk_size) and done < steps:  # the first chunk compiled; the second ran
+          pace = history[-1]["chunk_s"] / int(c.fit.chunk_size)
+          print(f"round {r} fit: {1000 * pace:.0f} ms per step, about {runlog.duration(pace * (steps - done))} left "
+                f"of {steps:,} steps", flush=True)  # fmt: skip
+        if eval_every and (n % eval_every == 0 or done == steps):
+          t = time.perf_counter()
+          # Round 0's key in every round: the curves of a fit and of its continuation are paired.
+          ev = self.evaluate(state, r, int(c.fit.eval_states), self.key(0, _FIT_EVALUATE), progress=False)
+          history[-1].update(eval_success=ev["success"], eval_s=round(time.perf_counter() - t, 3))
+        if stop or (save_every and done < steps and n % save_every == 0):
+          self.dir.save_partial_fit(r, state, done, history)
+        if stop:
+          raise KeyboardInterrupt
+
+      state, history = fit_lib.fit(self.policy, tx, state, buf, key, steps, c.fit, self.progress, f"round {r} fit",
+                                   start, history, on_chunk)  # fmt: skip
+    info = dict(steps=steps, final_loss=history[-1]["loss"], loss_curve=[h["loss"] for h in history])
+    info["time_steps_s"] = round(sum(h.get("chunk_s", 0.0) for h in history), 2)  # without in-fit evaluations
+    if eval_every:
+      info["eval_curve"] = eval_curve(history)
+    return state, info
+
+  def timed(self, fn):
+    """(fn(), {time_total_s, time_compile_s})."""
+    self.timer.take()
+    t = time.perf_counter()
+    result = fn()
+    total = time.perf_counter() - t
+    return result, dict(time_total_s=round(total, 2), time_compile_s=round(min(self.timer.take(), total), 2))
+
+  def phase(self, r: int, name: str, work, save=None, load=None):
+    """`RunDir.once` with `work() -> (record, value)` timed, and the record logged once."""
+
+    def compute():
+      (record, value), times = self.timed(work)
+      return dict(record, **times), value
+
+    record, value = self.dir.once(r, name, compute, save, load)
+    if self.log is not None:
+      self.log.once(record, self.config.method)
+    return record, value
+
+  def fit_phase(self, r: int, sets: list[EpisodeSet], norm, init_state=None, steps: int | None = None):
+    """Round r's fit on `sets`, its policy saved with the record -> the fitted TrainState."""
+
+    def work():
+      state, info = self.fit(build_buffer(self.config, self.policy, sets, self.env), norm, r, init_state, steps)
+      return dict(info, num_episodes=sum(len(s.episodes) for s in sets)), state
+
+    def save(state):
+      checkpoint.save(self.dir.ckpt_dir(r), state, self.config, self.spec)
+      self.dir.clear_partial_fit(r)
+
+    load = lambda _: checkpoint.load(self.dir.ckpt_dir(r), self.spec).state
+    return self.phase(r, "fit", work, save, load)[1]
+
+  def explore_phase(self, r: int, state, buf) -> tuple[dict, list[dict]]:
+    """Round r's exploration (prepared on `buf`) -> its record and the episodes it kept, saved with it
+    (and its first episodes, to be watched)."""
+    meta = dict(
+      env_name=self.env.name, strategy=self.config.explore.strategy.name, new_data=self.config.rounds.new_data
+    )
+
+    def work():
+      rec, kept, shown = self.explore(state, r, buf)
+      return rec, (kept, shown)
+
+    def save(value):
+      self.dir.save_kept(r, value[0], meta)
+      self.dir.save_shown(r, "explore", value[1], meta)
+
+    record, (kept, _) = self.phase(r, "explore", work, save, lambda rec: (self.dir.kept(rec), None))
+    return record, kept
+
+  def evaluate_phase(self, r: int, state) -> dict:
+    """Round r's evaluation -> its record, saved with its first episodes (to be watched)."""
+
+    def work():
+      rec, out = self._evaluate(state, r)
+      return rec, self.shown(out)
+
+    save = lambda shown: self.dir.save_shown(r, "evaluate", shown, dict(env_name=self.env.name))
+    return self.phase(r, "evaluate", work, save)[0]
+
+  def videos(self, r: int) -> None:
+    """Draw round r's stored episodes to MP4 (`video`), once; a renderer that cannot start is a warning,
+    not the run's end (the run can draw them later: `python -m soe_jax video`)."""
+    if not int(self.config.log.videos):
+      return
+    try:
+      video.render_round(self.dir, self.env, r, redraw=False)
+    except (RenderError, OSError) as e:
+      print(f"warning: round {r}'s videos were not drawn: {e}", flush=True)
+
+
+def eval_curve(history: list[dict]) -> list[dict]:
+  """The in-fit evaluations of a fit's history: step, success rate, the per-state outcomes, and the fit's
+  time up to then without (`fit_s`) and with (`wall_s`) the evaluations before."""
+  curve, fit_s, eval_s = [], 0.0, 0.0
+  for h in history:
+    fit_s += h.get("chunk_s", 0.0)
+    if "eval_success" in h:
+      outcomes = h["eval_success"]
+      curve.append(dict(step=h["step"], success_rate=sum(outcomes) / len(outcomes), success=outcomes,
+                        fit_s=round(fit_s, 2), wall_s=round(fit_s + eval_s, 2)))  # fmt: skip
+      eval_s += h["eval_s"]
+  return curve

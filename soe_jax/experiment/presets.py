@@ -1,0 +1,276 @@
+"""The config's fields at paper scale (`base_config`) and the presets every config file shares:
+`configs/<task>.py[:PRESETS]`, and a user's own config file, call `apply_presets(base_config(...), arg)`.
+
+`python -m soe_jax run --config=configs/TASK.py:cpu,soe` runs round 0 (scripted demonstrations, the
+round-0 fit with the VIB bypass, evaluation on 200 fixed start states) and one round of exploration
+(100 start states x 5 tries) -> keep each state's first success -> re-fit -> evaluate (the same
+states with the same sampling keys), leaving metrics.jsonl, report.md, outcomes.json and plots in
+runs/TASK-METHOD-seed<k>/. Round 0 is shared by every method run beside it.
+
+Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
+`configs/square.py:head=flow_unet,smoke`:
+- `smoke`: tiny networks, two short rounds, seconds once compiled (for tests);
+- `cpu`: the recipe that converged fastest on a 2-core CPU: the narrow UNet 32/64/128 at AdamW 1e-3
+  and batch 64, 10k round-0 steps, one round whose re-fit continues for 3k steps at 3e-4 with the EMA
+  carried on; each task's own number of demonstrations and round-0 steps where it needs others (its
+  config says which, and the converged base success measured with them);
+- none: paper scale (Diffusion Policy's low-dim UNet, 25k steps of AdamW 3e-4 at batch 256, DDIM-10,
+  3 rounds), for accelerators (there with `--config.env.backend=mujoco`: MJX compiles and steps
+  these contact-rich scenes slowly even on an H100; BENCHMARKS.md);
+- the method: `dp`, `sime`, `soe` or `soe_steer` (`method`, and `explore.strategy`: the strategy of
+  that name with its settings), or `control` (each round re-fits on the previous round's data alone,
+  with the same budget: no exploration, no new episodes);
+- `expert_data`, beside a method: an oracle arm that explores as the method does and then trains on
+  the scripted demonstrator's episodes from the start states the method kept (`method` becomes
+  `<method>-expert_data`, `rounds.new_data` `expert`);
+- what an exploring method keeps and how it explores, beside it (each adds to `method`, e.g.
+  `soe,select=shortest_success` is `soe-select_shortest_success`): `select=RULE` (`rounds.select`),
+  `length_cap=X` (`rounds.length_cap`: only successes no longer than X times the demonstrations' mean
+  length), `alpha=X` and `hold=N` (the strategy's exploration scale; `soe`'s decisions per draw of
+  its latent noise), `beta=X` (the bypass's KL weight `policy.bypass.beta`, the KL ablation: the
+  arm fits a round 0 of its own);
+- `head=NAME` (diffusion_unet, flow_unet, mlp);
+- `image`: the paper's simulation observations, the agent-view and in-hand cameras' 84 x 84 images
+  beside the low-dim vector (`env.obs_mode`), encoded by robomimic's ResNet-18 per camera with random
+  76 x 76 crops in training (`policy.encoder`), the images stored unpadded (`data.image_frames`
+  frames), SIME's image-task noise scale 0.5; with `cpu` the trunk's widths are 16/32/64/128 (its fit
+  step ~6x faster here than ResNet-18's 64/128/256/512, which accelerators keep) and round 0 fits for
+  4k steps, about an hour here.
+Single fields are overridden on the command line with `--config.fit.lr=3e-4`.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import ml_collections
+
+from soe_jax.envs import registry as env_registry
+from soe_jax.experiment.schema import EXPLORERS, METHODS, VARIANTS
+from soe_jax.explore import registry as strategy_registry
+from soe_jax.policies.nets.resnet import RESNET18_WIDTHS
+
+PRESETS = ("smoke", "cpu", "head", "image", "expert_data") + tuple(VARIANTS) + METHODS
+# The image encoder's trunk widths under `cpu,image` and `smoke,image` (ResNet-18's otherwise).
+CPU_IMAGE_WIDTHS = (16, 32, 64, 128)
+SMOKE_IMAGE_WIDTHS = (8, 8, 16, 16)
+
+
+def parse_arg(arg: str | None) -> dict:
+  """'smoke,head=mlp' -> {'smoke': True, 'head': 'mlp'}; unknown presets list the known ones."""
+  out = {}
+  for item in (arg or "").split(","):
+    item = item.strip()
+    if not item:
+      continue
+    name, _, value = item.partition("=")
+    if name not in PRESETS:
+      raise ValueError(f"unknown preset {name!r}; known presets: {', '.join(PRESETS)}")
+    out[name] = value if value else True
+  return out
+
+
+def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
+  """Paper-scale defaults (DESIGN.md): Diffusion Policy's low-dim UNet, the VIB bypass, AdamW 3e-4,
+  batch 256, 25k steps, DDIM-10."""
+  c = ml_collections.ConfigDict()
+  c.seed = 0
+  c.method = "soe"
+  c.env = ml_collections.ConfigDict(
+    dict(
+      task=task,
+      backend="auto",
+      mjx_impl="auto",
+      mjx_max_batch=8192,
+      mjx_settings="",
+      action_mode="absolute",
+      episode_length=400,
+      obs_mode="low_dim",  # low_dim | image (the cameras' images beside the low-dim vector)
+      image_size=84,
+      renderer="auto",  # auto (warp on a CUDA GPU with warp-lang) | gl | warp: what draws the cameras
+    )
+  )
+  # image_frames: the frames of camera images the buffer holds (image policies; their images are stored
+  # unpadded, every episode's frames one after another).
+  c.data = ml_collections.ConfigDict(
+    dict(num_demos=num_demos, demo_seed=1000, hdf5_path="", filter_key="", max_length=400, capacity=2048,
+         image_frames=0)
+  )  # fmt: skip
+  c.policy = ml_collections.ConfigDict(
+    dict(
+      n_obs_steps=2,
+      horizon=16,
+      n_action_steps=8,
+      head=dict(
+        name="diffusion_unet",
+        kwargs=dict(
+          down_dims=(256, 512, 1024),
+          step_embed_dim=256,
+          kernel_size=5,
+          n_groups=8,
+          sampler="ddim",
+          num_inference_steps=10,
+        ),
+      ),
+      encoder=dict(name="lowdim", kwargs={}),
+      # bypass.batch_fraction: the share of each batch the IB path's head loss uses (1: all of it).
+      bypass=dict(enabled=True, latent_dim=16, hidden=256, beta=1e-3, batch_fraction=1.0),
+      normalizer_margin=0.1,
+    )
+  )
+  # checkpoint_every: steps between saves of a fit in progress (0: none), from which it resumes.
+  # eval_every: steps between evaluations of the EMA policy during the fit (0: none), from eval_states
+  # start states of the evaluation seed, the same states and sampling key each time; success against
+  # steps and time goes into the fit's record.
+  c.fit = ml_collections.ConfigDict(
+    dict(
+      num_steps=25_000,
+      batch_size=256,
+      chunk_size=250,
+      lr=3e-4,
+      warmup_steps=500,
+      betas=(0.95, 0.999),
+      eps=1e-8,
+      weight_decay=1e-6,
+      ema=True,
+      checkpoint_every=1000,
+      eval_every=0,
+      eval_states=50,
+    )
+  )
+  # Rollouts (evaluation and exploration): environments per compiled slice (0: all), decisions per call.
+  c.rollout = ml_collections.ConfigDict(dict(slice_size=0, decisions_per_call=10))
+  # Exploration: `tries` rollouts from each of `num_start_states` start states per round, with a
+  # strategy by name and its settings (`soe_jax/explore/`; the defaults are the strategy's own).
+  c.explore = ml_collections.ConfigDict(dict(strategy=strategy_config("soe"), num_start_states=100, tries=5))
+  # Evaluation: the base path from `num_start_states` start states split from `seed`, with the same
+  # policy-sampling keys in every round and for every method of a training seed (paired outcomes).
+  c.eval = ml_collections.ConfigDict(dict(num_start_states=200, seed=77_777))
+  # Rounds after round 0: select episodes (first_success | shortest_success | all_successes | sime;
+  # length_cap > 0: only successes no longer than length_cap x the demonstrations' mean length), append, re-fit
+  # (continue from the previous round's parameters for refit_steps at a peak lr of refit_lr, 0 meaning
+  # fit.lr; or scratch), evaluate.
+  # refit_ema: a continued re-fit's EMA restarts from the parameters (restart) or goes on (carry).
+  # steered: which episodes saved from the steering page the next fit takes (successful | all).
+  # new_data: what a round adds to the data: the episodes exploration kept (kept), the scripted
+  # demonstrator's episodes from the start states of those (expert: an oracle), or nothing (none: the
+  # control, which explores not at all).
+  # round0_dir: where the shared round 0 lives ("" = <workdir>/../round0).
+  # Logging beside metrics.jsonl and TensorBoard (never part of the experiment: a run resumes with other
+  # settings here): wandb mirrors each phase's numbers, with the config and the commit, to the project
+  # `wandb_project` (WANDB_MODE=offline keeps it on disk, in <workdir>/wandb). videos: each evaluation and
+  # exploration stores its first `videos` episodes, drawn to MP4 in <workdir>/videos/ (0: none).
+  c.log = ml_collections.ConfigDict(dict(wandb=False, wandb_project="soe_jax", videos=4))
+  c.rounds = ml_collections.ConfigDict(
+    dict(num_rounds=3, select="first_success", length_cap=0.0, refit="continue", refit_steps=10_000, refit_lr=0.0,
+         refit_ema="restart", steered="successful", new_data="kept", round0_dir="")
+  )  # fmt: skip
+  return c
+
+
+def strategy_config(name: str) -> ml_collections.ConfigDict:
+  """`explore.strategy` for strategy `name`: its name and all its settings at their defaults."""
+  return ml_collections.ConfigDict(dict(name=name, kwargs=strategy_registry.default_settings(name)))
+
+
+def apply_presets(
+  c: ml_collections.ConfigDict,
+  arg: str | None,
+  cpu_demos: int | None = None,
+  cpu_steps: int = 10_000,
+  cpu_image_demos: int | None = None,
+  cpu_image_steps: int = 4_000,
+  smoke_episode_length: int | None = 24,
+) -> ml_collections.ConfigDict:
+  """`cpu_demos`, `cpu_steps`: the task's number of demonstrations and round-0 fit steps under the `cpu`
+  preset: a task may need another number of demonstrations than the paper's for its converged base
+  policy to succeed on the 20-80% of start states the experiment wants, or a longer fit to converge.
+  `cpu_image_demos` (default `cpu_demos`), `cpu_image_steps`: the same under `cpu,image`.
+  `smoke_episode_length`: the episodes' length under `smoke` (None: the task's own, for a demonstrator
+  that needs it to succeed at all)."""
+  presets = parse_arg(arg)
+  methods = [m for m in METHODS if presets.get(m)]
+  if len(methods) > 1:
+    raise ValueError(f"choose one method preset, got {', '.join(methods)}")
+  if methods:
+    c.method = methods[0]
+    c.explore.strategy = strategy_config("dp" if methods[0] == "control" else methods[0])
+  if methods == ["control"]:
+    c.rounds.new_data = "none"  # (its explore.strategy is never used)
+  explorer = c.method in EXPLORERS
+  if presets.get("expert_data"):
+    if not explorer:
+      raise ValueError(f"expert_data goes with an exploring method ({', '.join(EXPLORERS)}), e.g. 'soe,expert_data'")
+    c.method = f"{c.method}-expert_data"
+    c.rounds.new_data = "expert"
+  for preset, (field, suffix) in VARIANTS.items():
+    if preset not in presets:
+      continue
+    value = presets[preset]
+    if value is True:
+      raise ValueError(f"the preset {preset} needs a value: {preset}=VALUE")
+    if not explorer:
+      raise ValueError(f"{preset}= goes with an exploring method ({', '.join(EXPLORERS)}), e.g. 'soe,{preset}={value}'")
+    *sections, name = field.split(".")
+    section = functools.reduce(getattr, sections, c)
+    if name not in section:
+      raise ValueError(f"{preset}: strategy {c.explore.strategy.name!r} has no setting {name!r}")
+    try:
+      section[name] = type(section[name])(value)
+    except ValueError:
+      raise ValueError(
+        f"{preset}={value}: expected a {type(section[name]).__name__}, e.g. {preset}={section[name]}"
+      ) from None
+    c.method = f"{c.method}-{suffix}{value}"
+  steer = c.explore.strategy.kwargs if c.explore.strategy.name == "soe_steer" else None
+  head_kwargs = c.policy.head.kwargs
+  if presets.get("cpu"):
+    # The recipe that converged fastest on a 2-core CPU (BENCHMARKS.md, "Convergence of round 0"): the
+    # narrow UNet 32/64/128, AdamW 1e-3 at batch 64; re-fits continue at 3e-4 with the EMA carried on.
+    # (The IB path's head loss on a quarter of each batch fits 20% faster but explores worse.)
+    head_kwargs.update(down_dims=(32, 64, 128), step_embed_dim=128)
+    c.fit.update(num_steps=cpu_steps, batch_size=64, lr=1e-3, warmup_steps=250, chunk_size=250)
+    c.data.num_demos = cpu_demos or c.data.num_demos
+    c.rounds.update(num_rounds=1, refit_steps=3000, refit_lr=3e-4, refit_ema="carry")
+    if steer is not None:  # a whole round of 500 steered episodes: lighter steering
+      steer.update(num_proposals=8, every=4, max_dims=2)
+  if presets.get("smoke"):
+    head_kwargs.update(down_dims=(16, 32, 64), step_embed_dim=32)
+    c.policy.bypass.hidden = 32
+    c.data.num_demos = min(c.data.num_demos, 4)
+    c.fit.update(num_steps=40, chunk_size=20, batch_size=32, warmup_steps=10, checkpoint_every=20)
+    c.data.capacity = 64
+    c.env.episode_length = smoke_episode_length or c.env.episode_length
+    c.explore.update(num_start_states=3, tries=2)
+    if steer is not None:
+      steer.update(num_proposals=4, num_choices=2, max_dims=2, snr_windows=64)
+    c.eval.num_start_states = 4
+    c.rounds.update(num_rounds=2, refit_steps=20)
+    c.log.videos = 0  # (the tests that watch episodes ask for them)
+  if presets.get("image"):
+    widths = SMOKE_IMAGE_WIDTHS if presets.get("smoke") else CPU_IMAGE_WIDTHS if presets.get("cpu") else RESNET18_WIDTHS
+    c.env.obs_mode = "image"
+    cameras = env_registry.image_keys(c.env.task)
+    c.policy.encoder = ml_collections.ConfigDict(
+      dict(name="image", kwargs=dict(cameras=cameras, crop_size=76, widths=widths))
+    )
+    # Two 84 x 84 cameras: 42 kB a frame (4.2 GB for 100k frames; 1.7 GB for the CPU's 40k); Transport's
+    # four, twice that.
+    c.data.image_frames = 2_000 if presets.get("smoke") else 40_000 if presets.get("cpu") else 100_000
+    if presets.get("cpu") and not presets.get("smoke"):
+      # A round-0 fit within an hour here: the narrow trunk's step is ~0.6 s (BENCHMARKS.md), the head's
+      # and the bypass's come on top.
+      c.fit.num_steps = cpu_image_steps
+      c.data.num_demos = cpu_image_demos or c.data.num_demos
+    if c.explore.strategy.name == "sime":
+      c.explore.strategy.kwargs.scale = 0.5  # SIME's scale for image tasks
+  if "head" in presets:
+    name = presets["head"]
+    c.policy.head.name = name
+    if name == "mlp":  # the UNet's settings do not apply to the regression head
+      c.policy.head.kwargs = ml_collections.ConfigDict(dict(hidden=(1024, 1024)))
+    elif name == "flow_unet":  # Euler steps instead of a DDPM/DDIM sampler
+      kwargs = c.policy.head.kwargs.to_dict()
+      kwargs.pop("sampler")
+      c.policy.head.kwargs = ml_collections.ConfigDict(kwargs)
+  return c

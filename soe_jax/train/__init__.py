@@ -1,0 +1,1 @@
+"""Fitting a policy: compiled chunks of SGD steps, the train state, checkpoints."""

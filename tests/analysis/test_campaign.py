@@ -1,0 +1,183 @@
+"""The comparison of methods as a measurement: the control and the oracle arm, evaluation paired across
+rounds and methods, the aggregate over seeds against the control, and a campaign's exported files."""
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from configs import lift as lift_config
+from soe_jax.analysis import aggregate, campaign, results
+from soe_jax.experiment import phases
+from soe_jax.experiment.rundir import RunDir
+from soe_jax.runtime.errors import UserError
+from soe_jax.train import checkpoint
+
+
+def test_every_round_and_method_evaluates_same_states_and_keys(smoke_run):
+  """Every round and method is evaluated on the same states with the same keys."""
+  _, config, workdir, _ = smoke_run
+  state = checkpoint.load(RunDir(workdir, config).ckpt_dir(0)).state
+  outputs = []
+  for method, r in (("soe", 0), ("soe", 2), ("dp", 1)):
+    c = lift_config.get_config(f"smoke,{method}")
+    exp = phases.Experiment(c, RunDir(workdir, c), progress=False)
+    outputs.append(exp.evaluate(state, r))
+  assert outputs[0] == outputs[1] == outputs[2]  # outcomes, jerk, lengths: the same episodes
+  saved = json.load(open(os.path.join(workdir, "outcomes.json")))  # and the run recorded them per state
+  assert saved["evaluate"]["0"] == outputs[0]["success"] and sorted(saved["evaluate"]) == ["0", "1", "2"]
+  assert len(saved["explore"]["1"]) == config.explore.num_start_states * config.explore.tries
+
+
+@pytest.mark.slow
+def test_expert_data_on_square_is_the_demonstrators_plan(tmp_path):
+  """Square's oracle data succeed from every kept start state (the re-planning `expert` strategy
+  succeeded on none of them: it leaves the nut resting on the peg's top)."""
+  import jax
+
+  from configs import square as square_config
+  from soe_jax.envs import observations
+
+  config = square_config.get_config("smoke,dp,expert_data")
+  config.env.episode_length = config.data.max_length = 400
+  config.rounds.update(num_rounds=1, round0_dir=str(tmp_path / "round0"))
+  exp = phases.Experiment(config, RunDir.create(str(tmp_path / "run"), config), progress=False)
+  keys = jax.random.split(jax.random.PRNGKey(5), 3)
+  rec, episodes = exp.expert_episodes(keys, dict(num_episodes=3))
+  assert rec["explored_episodes"] == 3 and rec["num_episodes"] == len(episodes) == 3
+  assert rec["expert_success_rate"] == 1.0 and all(ep["success"] for ep in episodes)
+  for ep, key in zip(episodes, keys):
+    start = observations.policy_obs(exp.env.reset(key).obs)
+    np.testing.assert_allclose(observations.policy_obs(ep["obs"], xp=np)[0], start, atol=1e-6)
+
+
+def _fake_run(path, method, seed, before, after, explored=(), jerk=3.0):
+  """A finished one-round run directory with hand-made per-state outcomes (`explored`: per start
+  state, its 2 tries)."""
+  os.makedirs(path)
+  config = lift_config.get_config(f"smoke,{method}").to_dict()
+  config.update(seed=seed)
+  config["rounds"]["num_rounds"] = 1
+  json.dump(config, open(os.path.join(path, "config.json"), "w"))
+  lines = []
+  for r, outcomes in ((0, before), (1, after)):
+    rate = sum(outcomes) / len(outcomes)
+    lines.append(dict(round=r, phase="evaluate", success_rate=rate, num_rollouts=len(outcomes), wilson_low=0.0,
+                      wilson_high=1.0, time_total_s=1.0))  # fmt: skip
+  if method != "control":
+    lines.insert(1, dict(round=1, phase="explore", pass_at_k=0.5, k=2, jerk=jerk, rollouts=3, rollouts_mean=1.5,
+                         num_episodes=2, kept_length_mean=40.0))  # fmt: skip
+  with open(os.path.join(path, "metrics.jsonl"), "w") as f:
+    f.writelines(json.dumps(m) + "\n" for m in lines)
+  explore = {"1": [t for state in explored for t in state]} if explored else {}
+  json.dump(dict(evaluate={"0": before, "1": after}, explore=explore), open(os.path.join(path, "outcomes.json"), "w"))
+
+
+def test_aggregate_pairs_each_method_with_round0_and_its_control(tmp_path):
+  """The aggregate pairs each method with its round 0 and with the control of its seed."""
+  base = {0: [1, 0, 0, 1], 1: [0, 0, 1, 0]}
+  _fake_run(tmp_path / "s0" / "soe", "soe", 0, base[0], [1, 1, 1, 0])
+  _fake_run(tmp_path / "s0" / "control", "control", 0, base[0], [1, 0, 0, 0])
+  _fake_run(tmp_path / "s1" / "soe", "soe", 1, base[1], [1, 1, 1, 0])
+  _fake_run(tmp_path / "s1" / "control", "control", 1, base[1], [0, 0, 1, 1])
+  rows = {r["method"]: r for r in aggregate.rows(aggregate.find_runs(str(tmp_path)))}
+  soe, control = rows["soe"], rows["control"]
+  assert soe["seeds"] == control["seeds"] == 2 and soe["sr_after_episodes"] == 8
+  vs0, vsc = soe["comparisons"]["round0"], soe["comparisons"]["control"]
+  assert (vs0["gained"], vs0["lost"]) == (4, 1)  # seed 0: +2 -1; seed 1: +2
+  assert (vsc["gained"], vsc["lost"]) == (4, 1) and vsc["differences"] == [0.5, 0.25]  # seed 1 lost state 3
+  assert vsc["p_value"] == pytest.approx(0.17971, abs=1e-5)  # CMH over (seed, state): chi-square 9 / 5
+  assert soe["vs_control"] == "+37.5 ± 17.7 pts, 4 / 1, p=0.18"
+  assert control["comparisons"]["control"] is None and control["vs_control"] == "-"
+  md, _ = aggregate.aggregate(aggregate.find_runs(str(tmp_path)))
+  assert md.splitlines()[-1].startswith("| lift | control |")  # the control's row last
+  table = results.table(str(tmp_path)).splitlines()  # the folder's runs -> the paper's columns
+  assert table[2] == ("| lift | soe | 2 | 50.0 ± 0.0% | 3.0 ± 0.0 | 3.0 ± 0.0 | 2.0 ± 0.0 (40.0 ± 0.0 steps) | "
+                      "37.5 ± 17.7% | 75.0 ± 0.0% (75.0% "
+                      "[40.9%, 92.9%], n=8) | +125.0 ± 106.1% | +37.5 ± 17.7 pts, 4 / 1, p=0.18 | "
+                      "+37.5 ± 17.7 pts, 4 / 1, p=0.18 |")  # fmt: skip
+  assert table[3].startswith("| lift | control | 2 | - | - | - | - | 37.5 ± 17.7% |") and table[3].endswith("| - |")
+  # An arm that keeps other episodes (a selection rule, a length cap) is paired with the same control.
+  _fake_run(tmp_path / "s0" / "short", "soe,select=shortest_success,length_cap=1.5", 0, base[0], [1, 1, 0, 1])
+  short = {r["method"]: r for r in aggregate.rows(aggregate.find_runs(str(tmp_path)))}[
+    "soe-select_shortest_success-cap1.5"
+  ]
+  assert short["comparisons"]["control"]["gained"] == 2 and short["comparisons"]["control"]["lost"] == 0
+  # A method without a control of its seed and settings has no such comparison.
+  _fake_run(tmp_path / "s2" / "dp", "dp", 2, base[0], base[0])
+  assert {r["method"]: r for r in aggregate.rows(aggregate.find_runs(str(tmp_path)))}["dp"]["vs_control"] == "-"
+
+
+def test_seeds_logged_differently_are_one_arm(tmp_path):
+  """How a run is logged (videos, wandb) is not part of the experiment: it does not split an arm."""
+  for seed in (0, 1):
+    _fake_run(tmp_path / f"s{seed}" / "soe", "soe", seed, [1, 0, 0, 1], [1, 1, 1, 0])
+  path = tmp_path / "s1" / "soe" / "config.json"
+  config = json.load(open(path))
+  config["log"].update(videos=4, wandb=True)
+  json.dump(config, open(path, "w"))
+  rows = aggregate.rows(aggregate.find_runs(str(tmp_path)))
+  assert [(r["method"], r["seeds"]) for r in rows] == [("soe", 2)]
+
+
+def test_a_campaign_runs_its_methods_and_exports_their_commands(tmp_path):
+  """A campaign runs its methods and exports each run with its command."""
+  results = tmp_path / "results"
+  md = campaign.campaign("configs/lift.py:smoke", {"seed": 3, "rounds.num_rounds": 1}, ["control"],
+                         str(tmp_path / "runs"), str(results), progress=False)  # fmt: skip
+  out = results / "lift" / "seed3" / "control"
+  assert sorted(os.listdir(out)) == ["command.json", "config.json", "metrics.jsonl", "outcomes.json", "report.md"]
+  source = json.load(open(out / "command.json"))
+  assert source["main_command"].startswith(
+    "python -m soe_jax run --config=configs/lift.py:smoke,control --config.rounds.num_rounds=1 --config.seed=3 "
+  )
+  assert "round0_dir=" in source["main_command"]
+  assert json.load(open(out / "config.json"))["seed"] == 3
+  assert os.path.isdir(tmp_path / "runs" / "lift" / "seed3" / "round0")  # its own round 0
+  assert "| lift | control |" in md and (results / "comparison.md").read_text() == md
+  with pytest.raises(UserError, match=r"method 'sime\+oops'"):
+    campaign.campaign("configs/lift.py:smoke", {}, ["sime+oops"], str(tmp_path / "x"), str(results), False)
+  assert not os.path.exists(tmp_path / "x")  # nothing written for a bad method
+
+
+def test_a_campaigns_seed_is_the_configs_unless_overridden():
+  """A campaign's seed is the config's unless overridden, and is always in its run commands."""
+  spec = "configs/lift.py:smoke"
+  seed, overrides, configs = campaign.configs(spec, {"rounds.num_rounds": 1}, ["dp", "soe+expert_data"])
+  assert seed == 0 and overrides == {"rounds.num_rounds": 1, "seed": 0}  # the config file's seed, named
+  assert {presets: c.method for presets, c in configs.items()} == {"dp": "dp", "soe,expert_data": "soe-expert_data"}
+  seed, overrides, configs = campaign.configs(spec, {"seed": 4, "log.videos": 0}, ["dp"])
+  assert seed == 4 and list(overrides.items()) == [("log.videos", 0), ("seed", 4)] and configs["dp"].seed == 4
+  command = campaign.main_command(spec, "dp", overrides, "runs/x/dp", "runs/x/round0")
+  assert command == ("python -m soe_jax run --config=configs/lift.py:smoke,dp --config.log.videos=0 --config.seed=4 "
+                     "--config.rounds.round0_dir=runs/x/round0 --workdir=runs/x/dp")  # fmt: skip
+
+
+def test_the_papers_claims_are_tested_on_the_paired_runs(tmp_path):
+  from soe_jax.analysis import claims
+
+  n = 40
+  base, good, bad = [0] * n, [1] * 30 + [0] * 10, [1] * 5 + [0] * 35
+  explored = {"soe": [[1, 0]] * 30 + [[0, 1]] * 10, "sime": [[0, 1]] * 25 + [[0, 0]] * 15, "dp": [[0, 0]] * n}
+  jerks = {"soe": [3.0, 3.3, 2.9], "sime": [9.0, 12.0, 10.0], "dp": [3.1, 3.0, 3.2]}
+  for seed in range(3):
+    for method in ("soe", "sime", "dp"):
+      after = good if method == "soe" else bad
+      _fake_run(tmp_path / f"s{seed}" / method, method, seed, base, after, explored[method], jerks[method][seed])
+    _fake_run(tmp_path / f"s{seed}" / "control", "control", seed, base, bad)
+  success, passes, rollouts, jerk = claims.claims(aggregate.rows(aggregate.find_runs(str(tmp_path))), "lift")
+  assert success.startswith("SOE raises success (paper: +19% to +62% relative, DP can degrade): reproduced.")
+  assert "SOE against the control +62.5 points (p = " in success and "DP against the control +0.0 points" in success
+  assert "relative to round 0 undefined (round 0 at 0%)" in success
+  assert passes.startswith("Pass@5 ordered SOE > SIME > DP: reproduced;")  # per seed: 40, 25 and 0 states
+  assert "SOE - SIME +37.5 points" in passes and "SIME - DP +62.5 points" in passes
+  assert rollouts.startswith("SOE needs the fewest rollouts: reproduced;")
+  assert (
+    "fewer than dp on 90 start states, more on 0" in rollouts
+    and "fewer than sime on 90 start states, more on 0" in rollouts
+  )
+  assert jerk.startswith("SIME's jerk far above DP's and SOE's: reproduced; SIME / DP 3.31x (p = 0.0065)")
+  assert "SOE / DP 0.99x (p = 0.8" in jerk
+  md = results.table(str(tmp_path))
+  assert "- lift: SOE needs the fewest rollouts: reproduced" in md

@@ -1,0 +1,146 @@
+"""Tables from committed result records compare every row with the first on the same states."""
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from soe_jax.analysis import results
+
+
+def _record(success, commit):
+  n = len(success)
+  ev = dict(success=success, success_rate=sum(success) / n, wilson_low=0.1, wilson_high=0.9, num_rollouts=n)
+  fit = dict(time_total_s=10.0, time_compile_s=1.0, final_loss=0.5)
+  return dict(kind="round0", commit=commit, inputs="x", fit=fit, evaluate=ev)
+
+
+def test_table_rows_in_file_order_paired_with_the_first(tmp_path):
+  (tmp_path / "01_a.json").write_text(json.dumps(_record([1, 0, 0, 0], "aaa")))
+  (tmp_path / "02_b.json").write_text(json.dumps(_record([0, 1, 1, 1], "bbb")))
+  rows = results.table(str(tmp_path)).splitlines()[2:]
+  assert rows[0].startswith("| 01_a | x | aaa |") and rows[0].endswith("| 0 / 0 (p=1.000) |")
+  assert "25.0%" in rows[0] and "75.0%" in rows[1] and rows[1].endswith("| 3 / 1 (p=0.625) |")
+
+
+def test_convergence_records_get_a_row_per_recipe_naming_diffs(tmp_path):
+  """Convergence records get a row per recipe, naming what differs from the first."""
+  from soe_jax import metrics
+
+  def record(lr, before, after):
+    curve = [dict(success_rate=0.5), dict(success_rate=0.6)]
+    fit = dict(steps=100, time_steps_s=10.0, time_total_s=12.0, eval_curve=curve)
+    ev = lambda s: dict(success_rate=sum(s) / len(s), num_rollouts=len(s))
+    check = dict(metrics.convergence(before, after, [0.5, 0.6]), before=ev(before), after=ev(after))
+    return dict(kind="converge", commit="abc", config=dict(fit=dict(lr=lr, num_steps=100)), fit=fit, check=check)
+
+  (tmp_path / "01.json").write_text(json.dumps(record(3e-4, [1, 0, 0, 0], [1, 1, 1, 0])))
+  (tmp_path / "02.json").write_text(json.dumps(record(1e-3, [1, 0, 0, 0], [1, 0, 0, 0])))
+  rows = results.table(str(tmp_path)).splitlines()[2:]
+  assert rows[0].startswith("| 01 | - | abc | 100 | 10 s (12 s) | 50 / 60 | 25.0% -> 75.0% (n=4) | +50.0")
+  assert rows[0].endswith("| no |") and rows[1].startswith("| 02 | fit.lr=0.001 |") and "+0.0 [+0.0, +0.0]" in rows[1]
+
+
+def test_latent_rows_get_effective_dims_and_paired_exploration(tmp_path):
+  """Latent records get their effective dimensions, and exploration paired with the first record's."""
+
+  def record(fraction, snr, success):
+    ex = dict(success=success, success_rate=sum(success) / len(success), wilson_low=0.1, wilson_high=0.9,
+              num_rollouts=len(success), pass_at_k=0.5, k=2, jerk=3.0)  # fmt: skip
+    dims = [i for i in sorted(range(len(snr)), key=lambda i: -snr[i]) if snr[i] > 0]
+    config = dict(policy=dict(bypass=dict(batch_fraction=fraction, beta=1e-3)))
+    return dict(kind="latent", commit="abc", config=config, latent=dict(snr_db=snr, effective_dims=dims), explore=ex)
+
+  (tmp_path / "01.json").write_text(json.dumps(record(1.0, [3.0, -1.0, 5.0], [1, 1, 0, 0])))
+  evaluated = dict(success_rate=0.625, num_rollouts=8)
+  second = record(0.25, [-2.0, 1.0, -1.0], [0, 1, 1, 1]) | {"round0": evaluated}
+  second["latent"] |= dict(signal_db=[-30.0, -19.0, -1.0], noise_db=[-28.0, -20.0, 0.0])
+  (tmp_path / "02.json").write_text(json.dumps(second))
+  rows = results.table(str(tmp_path)).splitlines()[2:]
+  assert rows[0].startswith("| 01 | - | abc | - | 2 [2, 0] | 5.0 dB | - | 50.0%") and rows[0].endswith("| - |")
+  assert rows[1].startswith(
+    "| 02 | policy.bypass.batch_fraction=0.25 | abc | 62.5% (n=8) | 1 [1] | 1.0 dB | -20.0 dB | 75.0%"
+  )
+  assert rows[1].endswith("| 2 / 1 (p=1.000) |") and len(rows) == 2  # one task, size and seed: no summary
+
+
+def test_latent_sweeps_get_effective_dims_beside_the_papers(tmp_path):
+  """Latent records of tasks, sizes, KL weights and seeds get their effective dimensions beside the paper's."""
+
+  def record(task, d, seed, snr, beta=1e-3):
+    ex = dict(success=[1, 0], success_rate=0.5, wilson_low=0.1, wilson_high=0.9, num_rollouts=2, pass_at_k=0.5, k=2,
+              jerk=3.0)  # fmt: skip
+    config = dict(env=dict(task=task), seed=seed, policy=dict(bypass=dict(latent_dim=d, batch_fraction=1.0, beta=beta)))
+    dims = [i for i in range(len(snr)) if snr[i] > 0]
+    return dict(kind="latent", commit="abc", config=config, latent=dict(snr_db=snr, effective_dims=dims), explore=ex)
+
+  for name, args in {
+    "a": ("lift", 16, 0, [1, 1, -1]),
+    "b": ("lift", 16, 1, [1, -1, -1]),
+    "c": ("can", 32, 0, [1, 2, 3]),
+    "d": ("lift", 16, 0, [1, 1, 1], 0.0),  # the KL ablation: its own row, no paper number
+  }.items():
+    (tmp_path / f"{name}.json").write_text(json.dumps(record(*args)))
+  latent, summary = (part.splitlines() for part in results.table(str(tmp_path)).split("\n\n"))
+  assert [row.endswith("| - |") for row in latent[2:]] == [True, True, True, False]  # d is paired with a
+  assert summary[2:] == [
+    "| can | 32 | 0.001 | 1 | seed 0: 3 | 3 | 8 |",
+    "| lift | 16 | 0 | 1 | seed 0: 3 | 3 | - |",
+    "| lift | 16 | 0.001 | 2 | seed 0: 2, seed 1: 1 | 1.5 ± 0.7 | 8 |",
+  ]
+
+
+def test_a_record_without_a_kind_is_an_error_naming_its_file(tmp_path):
+  (tmp_path / "01_a.json").write_text(json.dumps(_record([1, 0], "aaa")))
+  untyped = _record([0, 1], "bbb")
+  del untyped["kind"]
+  (tmp_path / "02_b.json").write_text(json.dumps(untyped))
+  with pytest.raises(ValueError, match=r"02_b\.json states no kind \(known kinds: .*round0"):
+    results.table(str(tmp_path))
+  (tmp_path / "02_b.json").write_text(json.dumps(dict(untyped, kind="latent")))
+  with pytest.raises(ValueError, match="several kinds: latent, round0"):
+    results.table(str(tmp_path))
+  (tmp_path / "02_b.json").write_text(json.dumps(dict(untyped, kind="nonsense")))
+  (tmp_path / "01_a.json").unlink()
+  with pytest.raises(ValueError, match="unknown record kind 'nonsense'; known record kinds: converge"):
+    results.table(str(tmp_path))
+
+
+def test_generated_tables_are_rewritten_between_their_markers(tmp_path, monkeypatch):
+  (tmp_path / "study").mkdir()
+  (tmp_path / "study" / "01_a.json").write_text(json.dumps(_record([1, 0], "aaa")))
+  monkeypatch.chdir(tmp_path)
+  text = "intro\n<!-- table: study -->\n| stale |\n<!-- /table -->\nafter\n"
+  new = results.regenerate(text)
+  assert new.startswith("intro\n<!-- table: study -->\n| record |") and new.endswith("<!-- /table -->\nafter\n")
+  assert "| stale |" not in new and "| 01_a | x | aaa |" in new and results.regenerate(new) == new
+  with pytest.raises(ValueError, match="has no '<!-- /table -->'"):
+    results.regenerate("<!-- table: study -->\n| x |\n")
+  with pytest.raises(ValueError, match="before the next table"):  # not swallowing the next table's text
+    results.regenerate("<!-- table: study -->\nprose\n<!-- table: study -->\n<!-- /table -->\n")
+
+
+def test_the_docs_tables_are_what_their_committed_results_give(monkeypatch):
+  """Every generated table in RESULTS.md and BENCHMARKS.md is current (`python -m soe_jax results --docs`)."""
+  monkeypatch.chdir(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+  for path in results.DOCS:
+    text = open(path).read()
+    assert "<!-- table: " in text
+    assert results.regenerate(text) == text, f"{path} is stale: run python -m soe_jax results --docs"
+
+
+def test_the_results_command_prints_a_table_or_refuses_a_folder(tmp_path):
+  """`python -m soe_jax results` prints a folder's table, and refuses a folder without records."""
+  (tmp_path / "study").mkdir()
+  (tmp_path / "study" / "01_a.json").write_text(json.dumps(_record([1, 0], "aaa")))
+  command = [sys.executable, "-m", "soe_jax", "results"]
+  p = subprocess.run([*command, str(tmp_path / "study")], capture_output=True, text=True)
+  assert p.returncode == 0 and p.stdout == results.table(str(tmp_path / "study"))
+  p = subprocess.run([*command, str(tmp_path)], capture_output=True, text=True)
+  assert (
+    p.returncode == 2
+    and p.stdout == ""
+    and p.stderr == f"error: no result records (*.json) or exported runs in {str(tmp_path)!r}\n"
+  )

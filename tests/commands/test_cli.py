@@ -1,0 +1,74 @@
+"""What every command shares: `--help` exits 0 without import noise, a mistake is one `error:` line
+with exit status 2, and listing the commands imports neither JAX nor MuJoCo."""
+
+import os
+import subprocess
+import sys
+
+from soe_jax import __main__ as entry
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+# Every command's --help in one process, with MuJoCo Warp unimportable (as without the `gpu` extra,
+# where MJX prints "Failed to import warp" at import): what each printed, and its exit status.
+_HELP_ALL = """
+import contextlib, importlib, io, json, sys
+out = {}
+for name in sys.argv[1:]:
+  buf = io.StringIO()
+  with contextlib.redirect_stdout(buf):
+    module = importlib.import_module(f"soe_jax.commands.{name}")
+    try:
+      module.main([f"python -m soe_jax {name}", "--help"])
+      code = None
+    except SystemExit as e:
+      code = e.code
+  out[name] = [code, buf.getvalue()]
+print(json.dumps(out))
+"""
+
+
+def _run(args, tmp_path=None):
+  env = dict(os.environ)
+  if tmp_path is not None:  # a `warp` package that fails to import, first on the path
+    (tmp_path / "warp").mkdir(exist_ok=True)
+    (tmp_path / "warp" / "__init__.py").write_text("raise ImportError('warp is not installed here')\n")
+    env["PYTHONPATH"] = os.pathsep.join([str(tmp_path), ROOT])
+  return subprocess.run([sys.executable, *args], capture_output=True, text=True, cwd=ROOT, env=env, timeout=300)
+
+
+def test_listing_the_commands_imports_neither_jax_nor_mujoco():
+  script = (
+    "import sys\nfrom soe_jax import __main__ as m\ntry:\n  m.main(['soe_jax', '--help'])\nexcept SystemExit as e:\n"
+    "  assert e.code == 0\nassert not {'jax', 'mujoco'} & set(sys.modules), sorted({'jax', 'mujoco'} & set(sys.modules))"
+  )
+  done = _run(["-c", script])
+  assert done.returncode == 0, done.stderr
+  assert all(f"  {name} " in done.stdout for name in entry.COMMANDS)
+
+
+def test_every_commands_help_exits_0_without_import_noise(tmp_path):
+  import json
+
+  done = _run(["-c", _HELP_ALL, *entry.COMMANDS], tmp_path)
+  assert done.returncode == 0, done.stderr[-3000:]
+  assert "Failed to import" not in done.stdout + done.stderr
+  for name, (code, text) in json.loads(done.stdout.splitlines()[-1]).items():
+    assert code == 0, (name, code)
+    assert f"python -m soe_jax {name}" in text, (name, text[:300])
+
+
+def test_mistakes_are_one_error_line_with_exit_2(tmp_path):
+  cases = {
+    ("run",): "error: --config=configs/<task>.py[:PRESETS] is required",
+    ("run", "--config=configs/lift.py:smoke,fast"): "error: unknown preset 'fast'; known presets: smoke",
+    ("run", "--config=configs/lift.py:smoke", "--config.fit.num_steps=ten"): "base 10: 'ten'",
+    ("run", "--config=configs/lift.py:smoke", "--config.fit.num_step=3"): "(did you mean fit.num_steps?)",
+    ("nonsense",): "error: unknown command 'nonsense'; known commands: run, compare",
+  }
+  for args, expected in cases.items():
+    done = _run(["-m", "soe_jax", *args])
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2 and len(lines) == 1 and lines[0].startswith("error: "), (args, done.stderr)
+    assert expected in lines[0], (args, lines[0])
+    assert "Error:" not in lines[0], lines[0]  # no exception class names

@@ -1,0 +1,76 @@
+"""The presets every config file shares (`presets`), the tasks' own numbers under them, and overrides of
+a config file's fields."""
+
+import pytest
+
+from configs import can as can_config
+from configs import lift as lift_config
+from configs import square as square_config
+from soe_jax.experiment import rundir
+from soe_jax.runtime import configfile
+
+
+def test_method_presets_choose_the_strategy():
+  for method in ("dp", "sime", "soe", "soe_steer"):
+    config = lift_config.get_config(f"cpu,{method}")
+    assert config.method == config.explore.strategy.name == method
+  assert lift_config.get_config("cpu,soe_steer").explore.strategy.kwargs.every == 4
+  assert lift_config.get_config("smoke,soe").explore.strategy.kwargs.to_dict() == {"alpha": 2.0, "hold": 1}
+  with pytest.raises(ValueError, match="choose one method preset"):
+    lift_config.get_config("soe,dp")
+  with pytest.raises(
+    ValueError,
+    match="known presets: smoke, cpu, head, image, expert_data, select, length_cap, alpha, hold, beta, dp, sime,",
+  ):
+    lift_config.get_config("fast")
+  with pytest.raises(ValueError, match="expert_data goes with an exploring method"):
+    lift_config.get_config("control,expert_data")
+
+
+def test_variant_presets_set_and_name_their_field():
+  """A variant sets its field and adds itself to the method's name."""
+  c = lift_config.get_config("cpu,soe,select=shortest_success,length_cap=1.5,hold=4,alpha=1")
+  assert c.method == "soe-select_shortest_success-cap1.5-alpha1-hold4"
+  assert (c.rounds.select, c.rounds.length_cap) == ("shortest_success", 1.5)
+  assert c.explore.strategy.kwargs.to_dict() == {"alpha": 1.0, "hold": 4}
+  assert lift_config.get_config("sime,select=sime,expert_data").method == "sime-expert_data-select_sime"
+  ablated = lift_config.get_config("soe,beta=0")
+  assert (ablated.method, ablated.policy.bypass.beta) == ("soe-beta0", 0.0)
+  assert rundir.round0_key(ablated) != rundir.round0_key(lift_config.get_config("soe"))  # a round 0 of its own
+  for presets, message in [
+    ("control,select=sime", "goes with an exploring method"),
+    ("soe,alpha", "needs a value: alpha=VALUE"),
+    ("dp,hold=2", "strategy 'dp' has no setting 'hold'"),
+    ("soe,hold=two", "hold=two: expected a int, e.g. hold=1"),
+  ]:
+    with pytest.raises(ValueError, match=message):
+      lift_config.get_config(presets)
+
+
+def test_cpu_preset_takes_each_tasks_demos_and_steps():
+  """Under `cpu` each task has its own number of demonstrations and round-0 steps."""
+  lift, can, square = (config.get_config("cpu") for config in (lift_config, can_config, square_config))
+  assert (lift.data.num_demos, lift_config.get_config("").data.num_demos) == (3, 10)
+  assert can.data.num_demos == square.data.num_demos == can_config.get_config("").data.num_demos == 20
+  assert [c.fit.num_steps for c in (lift, can, square)] == [12_500, 20_000, 20_000]
+  assert lift.policy.head.kwargs.down_dims == (32, 64, 128) and lift.fit.lr == 1e-3 and lift.rounds.refit_lr == 3e-4
+  assert can_config.get_config("cpu,smoke").data.num_demos == 4  # smoke stays tiny
+  image = lift_config.get_config("cpu,image")  # Lift's image policy: robomimic's 10, fitted for 6k steps
+  assert (image.data.num_demos, image.fit.num_steps, can_config.get_config("cpu,image").fit.num_steps) == (
+    10,
+    6_000,
+    4_000,
+  )
+
+
+def test_a_misspelled_override_suggests_the_field():
+  argv = [
+    "--config.fit.stepz=3",
+    "--config.rounds.num_round=2",
+    "--config.fit.lr=1e-3",
+    "--config.policy.head.kwargs=x",
+  ]
+  assert configfile.unknown_overrides("configs/lift.py:smoke", argv) == [
+    "fit.stepz (did you mean fit.num_steps?)",
+    "rounds.num_round (did you mean rounds.num_rounds?)",
+  ]
