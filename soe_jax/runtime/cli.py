@@ -82,6 +82,8 @@ def parse(flag_values: Flags, argv: list[str], required: tuple[str, ...] = ()) -
   is one `error:` line and exit status 2: an unknown flag, a bad value, a misspelled `--config.a.b`
   (with the closest field), a bad preset, a missing required flag."""
   flag_values.unparse_flags()  # a command run twice in one process starts from its defaults
+  for name in [n for n in flag_values if n.startswith("config.")]:  # and without the last run's overrides
+    delattr(flag_values, name)
   saved, sys.argv = sys.argv, list(argv)  # (ml_collections reads `--config.a.b=v` from sys.argv)
   try:
     rest = flag_values(argv)

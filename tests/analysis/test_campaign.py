@@ -13,6 +13,7 @@ from soe_jax.experiment import phases
 from soe_jax.experiment.rundir import RunDir
 from soe_jax.runtime.errors import UserError
 from soe_jax.train import checkpoint
+from tests.experiment import toy, toy_config
 
 
 def test_every_round_and_method_evaluates_same_states_and_keys(smoke_run):
@@ -124,18 +125,20 @@ def test_seeds_logged_differently_are_one_arm(tmp_path):
 def test_a_campaign_runs_its_methods_and_exports_their_commands(tmp_path):
   """A campaign runs its methods and exports each run with its command."""
   results = tmp_path / "results"
-  md = campaign.campaign("configs/lift.py:smoke", {"seed": 3, "rounds.num_rounds": 1}, ["control"],
-                         str(tmp_path / "runs"), str(results), progress=False)  # fmt: skip
-  out = results / "lift" / "seed3" / "control"
+  spec = toy_config.__file__  # the toy task's config file: the campaign's logic on a task that runs in seconds
+  with toy.registered():
+    md = campaign.campaign(f"{spec}:smoke", {"seed": 3, "rounds.num_rounds": 1}, ["control"],
+                           str(tmp_path / "runs"), str(results), progress=False)  # fmt: skip
+  out = results / "toy" / "seed3" / "control"
   assert sorted(os.listdir(out)) == ["command.json", "config.json", "metrics.jsonl", "outcomes.json", "report.md"]
   source = json.load(open(out / "command.json"))
-  assert source["main_command"].startswith(
-    "python -m soe_jax run --config=configs/lift.py:smoke,control --config.rounds.num_rounds=1 --config.seed=3 "
+  assert source["kind"] == "run" and source["main_command"].startswith(
+    f"python -m soe_jax run --config={spec}:smoke,control --config.rounds.num_rounds=1 --config.seed=3 "
   )
   assert "round0_dir=" in source["main_command"]
   assert json.load(open(out / "config.json"))["seed"] == 3
-  assert os.path.isdir(tmp_path / "runs" / "lift" / "seed3" / "round0")  # its own round 0
-  assert "| lift | control |" in md and (results / "comparison.md").read_text() == md
+  assert os.path.isdir(tmp_path / "runs" / "toy" / "seed3" / "round0")  # its own round 0
+  assert "| toy | control |" in md and (results / "comparison.md").read_text() == md
   with pytest.raises(UserError, match=r"method 'sime\+oops'"):
     campaign.campaign("configs/lift.py:smoke", {}, ["sime+oops"], str(tmp_path / "x"), str(results), False)
   assert not os.path.exists(tmp_path / "x")  # nothing written for a bad method

@@ -55,7 +55,7 @@ def command_lines():
 
 def _check(words: list[str]) -> list[str]:
   """What is wrong with one command line: an unknown command or flag, preset or config field."""
-  if not words or PLACEHOLDER.search(words[0]) or words[0].lower() == "command":
+  if not words or PLACEHOLDER.search(words[0]) or words[0].lower() == "command" or words[0] == "--help":
     return []
   name, *args = words
   if name not in entry.COMMANDS:

@@ -53,9 +53,9 @@ def _demos(task, jitted):
   return env, collect.run_demos(env, make_expert(task), keys, progress=False)
 
 
-# transport's 700-step demonstrations take ~20 s: slow.
+# Lift's in the default suite; the others' whole demonstrations take 10-20 s each: slow.
 @pytest.mark.parametrize(
-  "task", [pytest.param(t, marks=pytest.mark.slow) if t == "transport" else t for t in expert_names()]
+  "task", [t if t == "lift" else pytest.param(t, marks=pytest.mark.slow) for t in expert_names()]
 )
 def test_quaternions_are_continuous_along_scripted_episodes(task, jitted_env):
   env, batch = _demos(task, jitted_env)

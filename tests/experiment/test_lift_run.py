@@ -119,6 +119,7 @@ def test_in_fit_evaluations_leave_the_fit_as_it_is(smoke_run, tmp_path):
   assert "paired states" in converge.curve_lines(result)[-1]
 
 
+@pytest.mark.slow  # (15 s; the latent's parts are tested in explore/test_steering.py)
 def test_latent_explores_as_the_run_did(smoke_run):
   """`bench latent` beside the smoke run shares its round 0; its exploration is round 1's, episode for
   episode, and the effective dimensions are the SNR's above 0 dB, highest first."""

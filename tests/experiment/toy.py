@@ -17,11 +17,11 @@ import jax.numpy as jnp
 import ml_collections
 import numpy as np
 from flax import struct
-from toy_config import NAME, get_config  # noqa: F401 (toy.get_config: the config file's)
 
 from soe_jax.envs import controller, observations, rotations
 from soe_jax.envs import registry as env_registry
 from soe_jax.experts import registry as expert_registry
+from tests.experiment.toy_config import NAME, get_config  # noqa: F401 (toy.get_config: the config file's)
 
 START = np.array([-0.1, 0.0, 1.0], np.float32)  # the point's start, +- START_NOISE
 START_NOISE = 0.02

@@ -90,7 +90,15 @@ def test_the_demonstrator_in_the_engine_keeps_its_success_rate(task_env):
   assert (cube_z > 0.8).all()
 
 
-@pytest.mark.parametrize("name", [n for n in registry.strategy_names() if n != "expert"])  # expert: above
+# expert: above; soe_steer (20 s of compiling its proposals) is slow, its logic in explore/test_strategies.py.
+@pytest.mark.parametrize(
+  "name",
+  [
+    pytest.param(n, marks=pytest.mark.slow) if n == "soe_steer" else n
+    for n in registry.strategy_names()
+    if n != "expert"
+  ],
+)
 def test_every_strategy_runs_in_the_engine(name, task_env):
   env, policy, agent = _setup(task_env("lift", episode_length=EPISODE))
   keys = jax.random.split(jax.random.PRNGKey(5), 2)

@@ -5,6 +5,7 @@ import os
 import subprocess
 import sys
 
+import chex
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -68,8 +69,7 @@ print(json.dumps(np.asarray(loaded.agent.act(obs, jax.random.PRNGKey(5))).tolist
 
 def test_checkpoint_loads_without_task_registry_to_same_samples(tmp_path):
   """A checkpoint loads without the task registry and gives identical samples."""
-  config, policy, tx, state, buf = _setup()
-  state, _ = fit.fit(policy, tx, state, buf, jax.random.PRNGKey(1), 20, config.fit, progress=False)
+  config, policy, tx, state, buf = _setup()  # (its fresh parameters: what is saved, not how it was fitted)
   path = str(tmp_path / "ckpt")
   checkpoint.save(path, state, config, task.spec(config))
   obs = np.asarray(buf.obs[:3, :2])
@@ -81,7 +81,8 @@ def test_checkpoint_loads_without_task_registry_to_same_samples(tmp_path):
   assert proc.returncode == 0, proc.stderr[-2000:]
   np.testing.assert_array_equal(np.asarray(json.loads(proc.stdout), np.float32), direct)
   loaded = checkpoint.load(path)
-  assert int(loaded.state.step) == 20 and loaded.spec == task.spec(config)
+  chex.assert_trees_all_equal(loaded.state.params, state.params)
+  assert loaded.spec == task.spec(config)
 
 
 def test_older_checkpoints_load_with_the_spec_or_are_refused(tmp_path):
