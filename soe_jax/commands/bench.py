@@ -28,7 +28,7 @@ from soe_jax.envs import backends, observations
 from soe_jax.envs import registry as env_registry
 from soe_jax.experts import registry as expert_registry
 from soe_jax.render import choice as render_choice
-from soe_jax.runtime import cli, compile_cache, provenance, sharding
+from soe_jax.runtime import cli, provenance
 
 USAGE = "python -m soe_jax bench SUB [flags]"
 
@@ -40,12 +40,6 @@ class Benchmark:
   define: Callable[[cli.Flags], None]  # its flags
   run: Callable[[cli.Flags, list[str]], dict]  # (its parsed flags, its command line) -> the JSON line
   config: bool = False  # needs --config
-
-
-def _start() -> None:
-  """Once the flags are checked, before a benchmark compiles with JAX."""
-  sharding.maybe_initialize_distributed()  # a multi-host run, when cluster variables describe one
-  compile_cache.enable()
 
 
 def _ints(values: list[str], name: str) -> tuple[int, ...]:
@@ -73,7 +67,6 @@ def _env_flags(f: cli.Flags) -> None:
 def _env(f: cli.Flags, argv: list[str]) -> dict:
   if f.unbatched and f.num_envs != 1:
     raise cli.UsageError(f"--unbatched runs one environment: add --num_envs=1 (got --num_envs={f.num_envs})")
-  _start()
   source = provenance.header(argv)  # the code as it was when the measurement started
   result = env.run(f.task, f.num_envs, f.backend, f.steps, f.repeats, f.unbatched, f.mjx_impl, f.mjx_settings,
                    f.obs_mode, f.renderer)  # fmt: skip
@@ -93,7 +86,6 @@ def _mjx_flags(f: cli.Flags) -> None:
 
 
 def _mjx(f: cli.Flags, argv: list[str]) -> dict:
-  _start()
   result = mjx.run(f.task, f.mjx_impl, f.num_envs, f.mjx_settings, progress=f.progress, argv=argv)
   if f.out:
     record.write_record(result, f.out, "mjx")
@@ -110,7 +102,6 @@ def _fit_flags(f: cli.Flags) -> None:
 
 
 def _fit(f: cli.Flags, argv: list[str]) -> dict:
-  _start()
   return policy.fit(f.config, f.bypass == "on", f.ema == "on", f.steps, f.repeats)
 
 
@@ -125,7 +116,6 @@ def _encoder_flags(f: cli.Flags) -> None:
 
 def _encoder(f: cli.Flags, argv: list[str]) -> dict:
   widths = _ints(f.widths, "widths")
-  _start()
   source = provenance.header(argv)
   result = encoder.run(f.batch, widths=widths, steps=f.steps, repeats=f.repeats)
   if f.out:
@@ -142,7 +132,6 @@ def _sample_flags(f: cli.Flags) -> None:
 
 
 def _sample(f: cli.Flags, argv: list[str]) -> dict:
-  _start()
   return policy.sample(f.config, f.batch, f.steps, f.repeats)
 
 
@@ -158,7 +147,6 @@ def _rollout_flags(f: cli.Flags) -> None:
 
 
 def _rollout(f: cli.Flags, argv: list[str]) -> dict:
-  _start()
   return rollout.run(f.config, f.strategy, f.num_envs, f.steps, f.repeats)
 
 
@@ -280,4 +268,4 @@ def main(argv: list[str] | None = None) -> None:
     cli.fail(f"{what}; usage: {USAGE} with SUB one of {', '.join(BENCHMARKS)} (--help lists them)")
   sub = [f"{argv[0]} {name}", *argv[2:]]  # "python -m soe_jax bench env", its flags
   required = ("config",) if BENCHMARKS[name].config else ()
-  cli.run(lambda rest: _run(name, sub, rest), FLAGS[name], BENCHMARKS[name].doc, sub, required=required)
+  cli.run(lambda rest: _run(name, sub, rest), FLAGS[name], BENCHMARKS[name].doc, sub, required=required, compiles=True)

@@ -47,4 +47,5 @@ def main(argv: list[str] | None = None) -> None:
     argv,
     required=("config",),
     interrupted="interrupted: the finished phases are saved; run the same command to resume",
+    compiles=True,
   )

@@ -40,4 +40,4 @@ def _compare(argv: list[str]) -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-  cli.run(_compare, FLAGS, __doc__, argv, required=("config",))
+  cli.run(_compare, FLAGS, __doc__, argv, required=("config",), compiles=True)

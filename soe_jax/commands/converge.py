@@ -16,7 +16,7 @@ from __future__ import annotations
 import json
 
 from soe_jax.analysis import converge, record
-from soe_jax.runtime import cli, compile_cache, sharding
+from soe_jax.runtime import cli
 
 USAGE = "python -m soe_jax converge --config=configs/<task>.py[:PRESETS] [flags]"
 
@@ -33,8 +33,6 @@ FLAGS.boolean("progress", True, "Progress bars.")
 
 def _converge(argv: list[str]) -> None:
   cli.positional(argv, "0", USAGE)
-  sharding.maybe_initialize_distributed()  # a multi-host run, when cluster variables describe one
-  compile_cache.enable()
   config = FLAGS.config
   result = converge.run(config, FLAGS.workdir, FLAGS.eval_every, FLAGS.eval_states, FLAGS.check_states,
                         FLAGS.extra, FLAGS.progress)  # fmt: skip
@@ -53,4 +51,5 @@ def main(argv: list[str] | None = None) -> None:
     argv,
     required=("config",),
     interrupted="interrupted: the finished phases are saved; run the same command to resume",
+    compiles=True,
   )

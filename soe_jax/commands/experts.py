@@ -13,7 +13,7 @@ import json
 from soe_jax.envs import backends
 from soe_jax.experts import collect
 from soe_jax.experts import registry as expert_registry
-from soe_jax.runtime import cli, compile_cache
+from soe_jax.runtime import cli
 
 FLAGS = cli.Flags()
 FLAGS.enum("task", "lift", expert_registry.expert_names(), "Task name.")
@@ -25,9 +25,8 @@ FLAGS.enum("backend", "auto", ["auto", *backends.BACKENDS.names()], "Physics bac
 
 def _run(argv: list[str]) -> None:
   cli.positional(argv, "0", "python -m soe_jax experts --task=TASK [--num_episodes=N --seed=S --out=FILE]")
-  compile_cache.enable()
   print(json.dumps(collect.record(FLAGS.task, FLAGS.num_episodes, FLAGS.seed, FLAGS.out, FLAGS.backend)))
 
 
 def main(argv: list[str] | None = None) -> None:
-  cli.run(_run, FLAGS, __doc__, argv)
+  cli.run(_run, FLAGS, __doc__, argv, compiles=True)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 
 from soe_jax.analysis import latent, record
-from soe_jax.runtime import cli, compile_cache, sharding
+from soe_jax.runtime import cli
 
 USAGE = "python -m soe_jax latent --config=configs/<task>.py[:PRESETS] [--windows=4096]"
 
@@ -31,8 +31,6 @@ FLAGS.boolean("progress", True, "Progress bars.")
 
 def _latent(argv: list[str]) -> None:
   cli.positional(argv, "0", USAGE)
-  sharding.maybe_initialize_distributed()  # a multi-host run, when cluster variables describe one
-  compile_cache.enable()
   config = FLAGS.config
   result = latent.run(config, FLAGS.workdir, FLAGS.windows, FLAGS.progress)
   print("\n".join(latent.summary_lines(result)))
@@ -50,4 +48,5 @@ def main(argv: list[str] | None = None) -> None:
     argv,
     required=("config",),
     interrupted="interrupted: the finished phases are saved; run the same command to resume",
+    compiles=True,
   )

@@ -19,7 +19,7 @@ import sys
 
 from soe_jax.analysis import report
 from soe_jax.experiment import loop, rundir
-from soe_jax.runtime import cli, compile_cache, sharding
+from soe_jax.runtime import cli
 
 FLAGS = cli.Flags()
 FLAGS.config_flag()
@@ -29,8 +29,6 @@ FLAGS.boolean("progress", True, "Progress bars.")
 
 def _run(argv: list[str]) -> None:
   cli.positional(argv, "0", "python -m soe_jax run --config=configs/<task>.py[:PRESETS]")
-  sharding.maybe_initialize_distributed()  # a multi-host run, when cluster variables describe one
-  compile_cache.enable()
   config = FLAGS.config
   workdir = FLAGS.workdir or rundir.default_workdir(config, FLAGS.config_file()[0])
   try:
@@ -44,4 +42,4 @@ def _run(argv: list[str]) -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-  cli.run(_run, FLAGS, __doc__, argv, required=("config",))
+  cli.run(_run, FLAGS, __doc__, argv, required=("config",), compiles=True)

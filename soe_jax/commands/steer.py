@@ -13,7 +13,7 @@ Ctrl-C stops the server.
 
 from __future__ import annotations
 
-from soe_jax.runtime import cli, compile_cache
+from soe_jax.runtime import cli
 from soe_jax.steer import server
 
 FLAGS = cli.Flags()
@@ -26,10 +26,9 @@ FLAGS.integer("seed", 0, "Start state of the first episode.")
 
 def _run(argv: list[str]) -> None:
   cli.positional(argv, "0", "python -m soe_jax steer --workdir=DIR [--round=R] [--port=P]")
-  compile_cache.enable()
   ready = lambda session, address: print(f"steering round {session.round} of {FLAGS.workdir}: {address}", flush=True)
   server.run(FLAGS.workdir, FLAGS.round, FLAGS.seed, FLAGS.host, FLAGS.port, ready)
 
 
 def main(argv: list[str] | None = None) -> None:
-  cli.run(_run, FLAGS, __doc__, argv, required=("workdir",))
+  cli.run(_run, FLAGS, __doc__, argv, required=("workdir",), compiles=True)

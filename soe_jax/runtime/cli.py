@@ -13,7 +13,7 @@ from typing import NoReturn
 from absl import flags, logging
 from ml_collections import config_flags
 
-from soe_jax.runtime import configfile, interrupt
+from soe_jax.runtime import compile_cache, configfile, interrupt, sharding
 from soe_jax.runtime.errors import UserError
 
 CONFIG_HELP = "configs/<task>.py[:PRESETS]"
@@ -125,15 +125,21 @@ def run(
   argv: list[str] | None = None,
   required: tuple[str, ...] = (),
   interrupted: str = "interrupted",
+  compiles: bool = False,
 ) -> None:
   """Parse `argv` (default `sys.argv`) with `flag_values` and call `main(positional arguments)` with
-  the above; `doc` is what `--help` prints above the flags; `interrupted` is what Ctrl-C prints (a
-  command that saves its work says where, and how to go on)."""
+    the above; `doc` is what `--help` prints above the flags; `interrupted` is what Ctrl-C prints (a
+    command that saves its work says where, and how to go on); `compiles`: the command compiles with JAX,
+  so once its flags are parsed a multi-host run starts (when cluster variables describe one) and the
+  persistent compilation cache is turned on."""
   argv = list(sys.argv if argv is None else argv)
   if any(a in ("-h", "--help", "-help", "--helpshort", "--helpfull") for a in argv[1:]):
     print(help_text(doc, flag_values), end="")
     sys.exit(0)
   rest = parse(flag_values, argv, required)
+  if compiles:
+    sharding.maybe_initialize_distributed()
+    compile_cache.enable()
   logging.set_verbosity(logging.WARNING)
   interrupt.terminate_as_interrupt()
   try:
