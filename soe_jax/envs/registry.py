@@ -26,11 +26,6 @@ def num_robots(name: str) -> int:
   return len(TASKS.factory(name).bases)
 
 
-def observation_size(name: str) -> int:
-  """The policy's observation size for task `name` (19 for lift, 23 for can and square, 59 for transport)."""
-  return observations.policy_obs_size(TASKS.factory(name).object_dim, num_robots(name))
-
-
 def action_size(name: str, action_mode: str) -> int:
   """The action size of task `name` in `action_mode`: 10 (absolute) or 7 (delta) per robot."""
   return controller.action_size(action_mode) * num_robots(name)

@@ -31,21 +31,16 @@ from soe_jax.train import fit as fit_lib
 _FIT, _EXPLORE, _EVALUATE, _FIT_EVALUATE = 1, 2, 3, 4
 
 
-def start_keys(config: ml_collections.ConfigDict) -> dict:
-  """The seeds of the evaluation start states (fixed) and of each round's exploration start states."""
-  return dict(eval_seed=int(config.eval.seed), explore_seed=int(config.seed) + 1)
-
-
 def evaluation_starts(config: ml_collections.ConfigDict, n: int | None = None) -> jax.Array:
   """The reset keys of the evaluation's `n` (default `eval.num_start_states`) start states: the same in
   every round and for every method of a training seed (which states depends on the count)."""
-  return jax.random.split(jax.random.key(start_keys(config)["eval_seed"]), int(n or config.eval.num_start_states))
+  return jax.random.split(jax.random.key(int(config.eval.seed)), int(n or config.eval.num_start_states))
 
 
 def exploration_starts(config: ml_collections.ConfigDict, r: int) -> jax.Array:
   """The reset keys of round r's exploration: `explore.num_start_states` start states, new each round,
   the same for every method, each repeated `explore.tries` times (a state's tries adjacent)."""
-  seed = jax.random.fold_in(jax.random.key(start_keys(config)["explore_seed"]), r)
+  seed = jax.random.fold_in(jax.random.key(int(config.seed) + 1), r)  # (the training seed's own stream)
   return jnp.repeat(jax.random.split(seed, int(config.explore.num_start_states)), int(config.explore.tries), axis=0)
 
 
