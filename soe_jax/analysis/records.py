@@ -19,7 +19,7 @@ import numpy as np
 
 from soe_jax import metrics
 from soe_jax.analysis import kept
-from soe_jax.analysis.tables import markdown, pct
+from soe_jax.analysis.tables import markdown, pct, rate
 from soe_jax.experiment import rundir, runlog
 from soe_jax.registry import Registry
 
@@ -34,11 +34,6 @@ def _setting(config: dict, first: dict) -> str:
   a, b = (runlog.flatten(rundir.with_added(c)) for c in (first, config))  # older records lack added fields
   diff = [f"{k}={b.get(k)}" for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
   return ", ".join(diff) or "-"
-
-
-def _rate(m: dict) -> str:
-  """'12.3% [10.0%, 15.0%] (n=200)'."""
-  return f"{pct(m['success_rate'])} [{pct(m['wilson_low'])}, {pct(m['wilson_high'])}] (n={m['num_rollouts']})"
 
 
 def env_table(records: Records) -> str:
@@ -178,7 +173,7 @@ def latent_table(records: Records) -> str:
       f"{len(lat['effective_dims'])} {lat['effective_dims']}",
       f"{max(lat['snr_db']):.1f} dB",
       noise,
-      _rate(ex),
+      rate(ex),
       f"{pct(ex['pass_at_k'])} (k={ex['k']})",
       f"{ex['jerk']:.1f}",
       vs,
@@ -224,7 +219,7 @@ def round0_table(records: Records) -> str:
       r["commit"],
       f"{fit['time_total_s']:.0f} s ({fit['time_compile_s']:.0f} s)",
       f"{fit['final_loss']:.4f}",
-      _rate(ev),
+      rate(ev),
       pct(ev["obs_out_of_range"]) if "obs_out_of_range" in ev else "-",
       f"{c['gained']} / {c['lost']} (p={c['p_value']:.3f})",
     ])  # fmt: skip

@@ -16,7 +16,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from soe_jax import metrics
-from soe_jax.analysis.tables import markdown, pct
+from soe_jax.analysis.tables import markdown, pct, rate
 from soe_jax.experiment import rundir, runlog, video
 from soe_jax.runtime import atomic
 
@@ -28,12 +28,6 @@ def _by_phase(lines: list[dict]) -> dict:
   for m in lines:
     out[(m["round"], m["phase"])] = m  # a resumed run may repeat a line: the last one counts
   return out
-
-
-def _sr(m: dict | None) -> str:
-  if m is None:
-    return "-"
-  return f"{pct(m['success_rate'])} [{pct(m['wilson_low'])}, {pct(m['wilson_high'])}] (n={m['num_rollouts']})"
 
 
 def _round_wall_s(phases: dict, r: int) -> float:
@@ -129,14 +123,14 @@ def write(workdir: str) -> dict:
   s, phases = _summarize(workdir)
   k = s.get("k", 5)
   last = s["rounds"][-1] if s["rounds"] else 0  # 0: round 0 alone, nothing after it
-  after = _sr(phases.get((last, "evaluate")) if last else None)
+  after = rate(phases.get((last, "evaluate")) if last else None)
   run_row = [s["method"], pct(s.get("pass_at_k")), _jerk(s.get("jerk")), s.get("rollouts", "-"),
-             _sr(phases.get((0, "evaluate"))), after, _improvement(s)]  # fmt: skip
+             rate(phases.get((0, "evaluate"))), after, _improvement(s)]  # fmt: skip
   per_round = []
   for r in s["rounds"]:
     ex, fi, ev = phases.get((r, "explore"), {}), phases.get((r, "fit"), {}), phases.get((r, "evaluate"), {})
     loss = f"{fi['final_loss']:.4f}" if fi else "-"
-    per_round.append([r, _sr(ev), pct(ex.get("pass_at_k")), ex.get("rollouts", "-"), _jerk(ex.get("jerk")),
+    per_round.append([r, rate(ev), pct(ex.get("pass_at_k")), ex.get("rollouts", "-"), _jerk(ex.get("jerk")),
                       ex.get("num_episodes", "-"), loss, f"{_round_wall_s(phases, r):.0f}"])  # fmt: skip
   md = [
     f"# {s['task']}: {s['method']} (seed {s['seed']})",

@@ -20,6 +20,14 @@ def pct(x: float | None) -> str:
   return "-" if x is None else f"{100 * x:.1f}%"
 
 
+def rate(m: dict | None) -> str:
+  """A phase record's success rate with its 95% Wilson interval and episodes: '12.3% [10.0%, 15.0%]
+  (n=200)' ('-' for None)."""
+  if m is None:
+    return "-"
+  return f"{pct(m['success_rate'])} [{pct(m['wilson_low'])}, {pct(m['wilson_high'])}] (n={m['num_rollouts']})"
+
+
 def spread(xs, scale: float = 100, unit: str = "%", sign: str = "", fmt: str = ".1f") -> str:
   """Mean ± sample standard deviation over seeds of the values present in `xs` (None and NaN are
   absent), scaled; the mean alone for one seed, '-' for none."""
