@@ -16,6 +16,7 @@ COMMANDS = {
   "aggregate": "finished runs -> one table over tasks x methods, paired with round 0 and the control",
   "results": "committed records under results/ -> tables; --docs regenerates the documents' tables",
   "kept": "what the kept episodes of runs look like (lengths, spread, states), as a record",
+  "action_range": "round 0 on the workspace box against the demonstrations' range, by distance outside it",
   "video": "a run's stored episodes drawn to MP4",
   "steer": "steer a run's policy by hand in a local web page",
   "experts": "scripted demonstrations of a task, optionally saved to HDF5",

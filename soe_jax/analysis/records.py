@@ -8,7 +8,9 @@ command that wrote it sets it (`record.write_record`), and `TABLES` maps a kind 
 - `kept`: `python -m soe_jax kept`, the kept episodes measured (`kept.table`);
 - `round0`: a run's round-0 fit and evaluation (`fit`, `evaluate` with the per-state outcomes), each row
   paired with the first on the same evaluation start states;
-- `memory`: a run's peak memory, measured by `/usr/bin/time -v`.
+- `memory`: a run's peak memory, measured by `/usr/bin/time -v`;
+- `action_range`: `python -m soe_jax action_range`, round 0 on the workspace box against the
+  demonstrations' range per distance outside the latter (`action_range.table`).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from collections.abc import Callable
 import numpy as np
 
 from soe_jax import metrics
-from soe_jax.analysis import kept
+from soe_jax.analysis import action_range, kept
 from soe_jax.analysis.tables import markdown, pct, rate
 from soe_jax.experiment import rundir, runlog
 from soe_jax.registry import Registry
@@ -243,6 +245,7 @@ TABLES.register("latent", latent_table)
 TABLES.register("kept", lambda records: kept.table([run for _, r in records for run in r["runs"]]))
 TABLES.register("round0", round0_table)
 TABLES.register("memory", memory_table)
+TABLES.register("action_range", lambda records: action_range.table([s for _, r in records for s in r["seeds"]]))
 
 
 def table(records: Records, folder: str = "") -> str:

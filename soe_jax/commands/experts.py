@@ -1,9 +1,12 @@
-"""Scripted demonstrations of a task, the successful ones optionally saved in robomimic's HDF5 layout.
+"""Scripted demonstrations of a task, the successful ones optionally saved in robomimic's HDF5 layout;
+or, with --workspace, the task's workspace box (`experts.workspace`).
 
   python -m soe_jax experts --task=square --num_episodes=200 --seed=0 [--out=demos/square.hdf5]
+  python -m soe_jax experts --task=square --workspace --num_episodes=1000 --seed=90001
 
 The last line printed is one JSON object: task, num_episodes, success_rate, mean_length (over
-successful episodes), backend, seconds (and out, num_saved with --out).
+successful episodes), backend, seconds (and out, num_saved with --out); with --workspace: task,
+num_episodes, seed, margin, commanded and box (per robot [lo, hi]), expert_success_rate.
 """
 
 from __future__ import annotations
@@ -11,20 +14,28 @@ from __future__ import annotations
 import json
 
 from soe_jax.envs import backends
-from soe_jax.experts import collect
+from soe_jax.experts import collect, workspace
 from soe_jax.experts import registry as expert_registry
 from soe_jax.runtime import cli
+from soe_jax.runtime.errors import UserError
 
 FLAGS = cli.Flags()
 FLAGS.enum("task", "lift", expert_registry.expert_names(), "Task name.")
 FLAGS.integer("num_episodes", 200, "Number of demonstrations (one start state each).", lower_bound=1)
 FLAGS.integer("seed", 0, "Seed of the start states and the demonstrators' variety.")
 FLAGS.string("out", None, "Write the successful episodes to this HDF5 file.")
+FLAGS.boolean("workspace", False, "Print the task's workspace box (positions commanded, widened) instead.")
+FLAGS.float("margin", workspace.MARGIN, "With --workspace: metres added on each side.", lower_bound=0.0)
 FLAGS.enum("backend", "auto", ["auto", *backends.BACKENDS.names()], "Physics backend.")
 
 
 def _run(argv: list[str]) -> None:
   cli.positional(argv, "0", "python -m soe_jax experts --task=TASK [--num_episodes=N --seed=S --out=FILE]")
+  if FLAGS.workspace:
+    if FLAGS.out:
+      raise UserError("--workspace prints a box and writes no episodes: drop --out")
+    print(json.dumps(workspace.derive(FLAGS.task, FLAGS.num_episodes, FLAGS.seed, FLAGS.margin, FLAGS.backend)))
+    return
   print(json.dumps(collect.record(FLAGS.task, FLAGS.num_episodes, FLAGS.seed, FLAGS.out, FLAGS.backend)))
 
 

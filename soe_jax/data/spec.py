@@ -7,10 +7,13 @@ state, so a policy loads without the simulator's task registry; a task fills it
   {"observations": {"robot0_eef_pos": {"shape": [3], "dtype": "float32"}, ...,
                     "agentview_image": {"shape": [84, 84, 3], "dtype": "uint8", "image": true}},
    "actions": [[["position", 3], ["rotation_6d", 6], ["gripper", 1]]],   one list per arm, in order
-   "action_frame": "world", "control_hz": 20.0}
+   "action_frame": "world", "control_hz": 20.0,
+   "action_box": [{"position": [[x, y, z], [x, y, z]]}]}   per arm, a part's lowest and highest values
 
 The low-dimensional observation keys are concatenated in the order given (images are not); the action
-is the arms' blocks one after another.
+is the arms' blocks one after another. `action_box` (optional) bounds the parts it names: the policy's
+action normaliser maps the box to [-1, 1] (`policy.action_range = workspace`), so the policy can
+command anything inside it and nothing outside.
 """
 
 from __future__ import annotations
@@ -19,6 +22,8 @@ import dataclasses
 import json
 import math
 import os
+
+import numpy as np
 
 SPEC_FILE = "spec.json"
 ACTION_FRAMES = ("world", "delta")  # absolute poses in the world frame | robomimic's scaled increments
@@ -30,6 +35,7 @@ class PolicySpec:
   actions: list  # per arm: [[part, size], ...]
   action_frame: str
   control_hz: float
+  action_box: list | None = None  # per arm: {part: [lo (size,), hi (size,)]}
 
   def __post_init__(self):
     if self.action_frame not in ACTION_FRAMES:
@@ -37,6 +43,16 @@ class PolicySpec:
     sizes = {tuple(v.get("shape", ())) for k, v in self.observations.items() if v.get("image")}
     if len(sizes) > 1:
       raise ValueError(f"camera images of different shapes {sorted(sizes)}: one image size per policy")
+    if self.action_box is not None:
+      if len(self.action_box) != len(self.actions):
+        raise ValueError(f"action_box has {len(self.action_box)} arms, the actions {len(self.actions)}")
+      for k, (arm, box) in enumerate(zip(self.actions, self.action_box)):
+        sizes = dict((part, size) for part, size in arm)
+        for part, (lo, hi) in box.items():
+          if part not in sizes:
+            raise ValueError(f"action_box: arm {k} has no part {part!r}; its parts: {', '.join(sizes)}")
+          if not (len(lo) == len(hi) == sizes[part]) or not all(a < b for a, b in zip(lo, hi)):
+            raise ValueError(f"action_box: arm {k}'s {part} needs {sizes[part]} lows below their highs, got {lo}, {hi}")
 
   @property
   def lowdim_keys(self) -> tuple[str, ...]:
@@ -61,6 +77,18 @@ class PolicySpec:
     keys = self.image_keys
     return tuple(self.observations[keys[0]]["shape"][:2]) if keys else None
 
+  def action_bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
+    """(lo, hi), each (action_dim,): `action_box` laid over the action, -inf / +inf in the parts it
+    does not bound; None without a box."""
+    if self.action_box is None:
+      return None
+    lo, hi = [], []
+    for arm, box in zip(self.actions, self.action_box):
+      for part, size in arm:
+        lo += box[part][0] if part in box else [-np.inf] * size
+        hi += box[part][1] if part in box else [np.inf] * size
+    return np.asarray(lo, np.float64), np.asarray(hi, np.float64)
+
   def to_dict(self) -> dict:
     return dataclasses.asdict(self)
 
@@ -74,6 +102,7 @@ class PolicySpec:
       actions=[[list(p) for p in arm] for arm in d["actions"]],
       action_frame=d["action_frame"],
       control_hz=float(d["control_hz"]),
+      action_box=d.get("action_box"),
     )
 
 

@@ -31,6 +31,11 @@ TARGET_BOX = ((0.1, 0.295), (0.28, 0.525))  # x, y bounds of the can's compartme
 TARGET_CENTER = (0.1975, 0.4025)
 RELEASE_DISTANCE = math.atanh(0.4) / 10.0  # ~0.0424 m
 OBJECT_QPOS = 9
+# Every position the demonstrator commands from 1,000 start states
+# (x [-0.0773, 0.2225], y [-0.4237, 0.3505], z [0.8698, 1.0440]), widened
+# by 2 cm on each side (`experts.workspace`):
+#   python -m soe_jax experts --task=can --workspace --num_episodes=1000 --seed=90001
+WORKSPACE = (((-0.0973, -0.4438, 0.8497), (0.2425, 0.3705, 1.0641)),)
 
 
 def over_target(pos: jax.Array) -> jax.Array:
@@ -65,6 +70,7 @@ class Can(manipulation.ManipulationEnv):
   bases = (((-0.5, -0.1, 0.912), 0.0),)
   object_dim = 14
   object_layout = (("pos", 3), ("quat", 4), ("pos", 3), ("rel_quat", 4))
+  workspace = WORKSPACE
   agentview = dict(pos="1.0 0 1.75", quat="0.653 0.271 0.271 0.653")
 
   def _assets_mjcf(self) -> str:

@@ -20,6 +20,10 @@ TABLE_TOP = 0.8
 CUBE_HALF = 0.021
 SUCCESS_HEIGHT = TABLE_TOP + 0.04
 OBJECT_QPOS = 9  # the cube's free joint starts here
+# Every position the demonstrator commands from 1,000 start states (x [-0.1373, 0.0333], y [-0.0445,
+# 0.0447], z [0.8145, 1.0440]), widened by 2 cm on each side (`experts.workspace`):
+#   python -m soe_jax experts --task=lift --workspace --num_episodes=1000 --seed=90001
+WORKSPACE = (((-0.1573, -0.0646, 0.7945), (0.0533, 0.0648, 1.0641)),)
 
 
 class Lift(manipulation.ManipulationEnv):
@@ -27,6 +31,7 @@ class Lift(manipulation.ManipulationEnv):
   bases = (((-0.56, 0.0, 0.912), 0.0),)
   object_dim = 10
   object_layout = (("pos", 3), ("quat", 4), ("pos", 3))
+  workspace = WORKSPACE
 
   def _scene_mjcf(self) -> str:
     return f"""

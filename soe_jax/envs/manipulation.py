@@ -102,6 +102,9 @@ class ManipulationEnv(Env):
   object_dim: int = 0
   # (kind, size) of the `object` vector's parts: pos, quat (world frame), rel_quat (in the eef frame).
   object_layout: tuple = ()
+  # Each robot's workspace box ((lo x, y, z), (hi x, y, z)), robot0 first: the positions its scripted
+  # demonstrator commands, widened (`experts.workspace`); the policy's actions are normalised over it.
+  workspace: tuple | None = None
   agentview: dict = AGENTVIEW
   image_cameras: tuple = CAMERAS  # the cameras drawn with obs_mode="image", each `<camera>_image`
   # The accelerator scene: MJX's own solver options (MuJoCo Playground's Panda tasks use 5 / 8 and

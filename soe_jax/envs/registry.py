@@ -39,7 +39,9 @@ def image_keys(name: str) -> tuple[str, ...]:
 def task_spec(name: str, action_mode: str, cameras: tuple[str, ...] = (), image_size: int = 84) -> dict:
   """What a policy for task `name` reads and writes, as `data.spec.PolicySpec`'s dict: the policy's
   low-dimensional keys in order, the camera images `cameras` (of those the task draws) as
-  image_size-square uint8 images, each arm's action blocks, the action frame and the control rate."""
+  image_size-square uint8 images, each arm's action blocks, the action frame, the control rate and
+  the action box: the task's workspace (absolute positions), or the controller's input range [-1, 1]
+  (robomimic's increments); none for a task without a workspace."""
   sizes = observations.policy_obs_sizes(TASKS.factory(name).object_dim, num_robots(name))
   obs = {k: dict(shape=[n], dtype="float32") for k, n in sizes.items()}
   drawn = image_keys(name)
@@ -48,11 +50,17 @@ def task_spec(name: str, action_mode: str, cameras: tuple[str, ...] = (), image_
       raise ValueError(f"unknown camera image {key!r}; the {name} task draws {', '.join(drawn)}")
     obs[key] = dict(shape=[image_size, image_size, 3], dtype="uint8", image=True)
   arm = [list(part) for part in controller.action_layout(action_mode)]
+  workspace = TASKS.factory(name).workspace
+  if action_mode != "absolute":
+    box = [{"position": [[-1.0] * 3, [1.0] * 3]}] * num_robots(name)  # the controller clips its inputs there
+  else:
+    box = None if workspace is None else [{"position": [list(lo), list(hi)]} for lo, hi in workspace]
   return dict(
     observations=obs,
     actions=[arm] * num_robots(name),
     action_frame="world" if action_mode == "absolute" else "delta",
     control_hz=1.0 / controller.CONTROL_DT,
+    action_box=box,
   )
 
 

@@ -28,6 +28,11 @@ HANDLE_OFFSET = 0.054  # handle site along the nut's local x
 HANDLE_HALF_WIDTH = 0.015875  # the handle bar's half-extent across the nut's local x
 RELEASE_DISTANCE = math.atanh(0.4) / 10.0
 OBJECT_QPOS = 9
+# Every position the demonstrator commands from 1,000 start states
+# (x [-0.1817, 0.2354], y [-0.0445, 0.2890], z [0.8302, 1.0441]), widened
+# by 2 cm on each side (`experts.workspace`):
+#   python -m soe_jax experts --task=square --workspace --num_episodes=1000 --seed=90001
+WORKSPACE = (((-0.2018, -0.0646, 0.8102), (0.2554, 0.3091, 1.0641)),)
 
 
 class Square(manipulation.ManipulationEnv):
@@ -37,6 +42,7 @@ class Square(manipulation.ManipulationEnv):
   mjx_contacts = 64  # the nut's boxes on the peg and the table: up to 28 in the demonstrations
   mjx_constraints = 384
   object_layout = (("pos", 3), ("quat", 4), ("pos", 3), ("rel_quat", 4))
+  workspace = WORKSPACE
 
   def _assets_mjcf(self) -> str:
     return manipulation.prism_mesh("round_peg_mesh", 0.02, PEG_HALF_HEIGHT)

@@ -49,6 +49,15 @@ BIN_HALF = 0.15
 WALL_HALF = 0.005
 PLATE_TOP = BIN_Z - 0.065  # 0.811
 INNER_HALF = BIN_HALF - 2 * WALL_HALF  # 0.14: inside the walls
+# Every position each robot's demonstrator commands from 1,000 start states
+#   robot0: x [-0.2224, 0.2224], y [-0.4897, -0.0168], z [0.8241, 1.1261]
+#   robot1: x [-0.2118, 0.2332], y [-0.0022, 0.4891], z [0.8254, 1.1242]
+# widened by 2 cm on each side (`experts.workspace`):
+#   python -m soe_jax experts --task=transport --workspace --num_episodes=1000 --seed=90001
+WORKSPACE = (
+  ((-0.2425, -0.5098, 0.8041), (0.2425, 0.0033, 1.1461)),
+  ((-0.2319, -0.0222, 0.8054), (0.2532, 0.5092, 1.1442)),
+)
 WALL_TOP = BIN_Z + 0.075
 LID_PLATE = (0.15, 0.15, 0.005)  # half-extents
 LID_HANDLE = (0.01, 0.04, 0.015)
@@ -122,6 +131,7 @@ class Transport(manipulation.ManipulationEnv):
   name = "transport"
   bases = (((0.0, -0.81, 0.912), math.pi / 2), ((0.0, 0.81, 0.912), -math.pi / 2))
   object_dim = 41
+  workspace = WORKSPACE
   object_layout = (
     ("pos", 3),
     ("quat", 4),

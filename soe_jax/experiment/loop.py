@@ -61,8 +61,9 @@ def round0(exp: Experiment) -> tuple:
     )
   demos = run.demonstrations()
   margin = float(exp.config.policy.normalizer_margin)
+  box = exp.spec.action_bounds() if exp.config.policy.action_range == "workspace" else None
   norm = normalizer_lib.fit(
-    *policy_frames(demos), margin=margin, obs_min_span=exp.env.obs_min_span, num_robots=exp.env.num_robots
+    *policy_frames(demos), margin, exp.env.obs_min_span, exp.env.num_robots, action_box=box
   )
   state = exp.fit_phase(0, [EpisodeSet(demos, 0)], norm)
   exp.evaluate_phase(0, state)

@@ -14,7 +14,7 @@ import numpy as np
 
 from soe_jax import metrics
 from soe_jax.data.episodes import EpisodeSet, build_buffer, from_rollout
-from soe_jax.experiment import runlog, task, video
+from soe_jax.experiment import action_box, runlog, task, video
 from soe_jax.experiment import select as select_lib
 from soe_jax.experiment.rundir import RunDir
 from soe_jax.experts import collect
@@ -222,8 +222,9 @@ class Experiment:
     """Round r's fit on `sets`, its policy saved with the record -> the fitted TrainState."""
 
     def work():
+      clipped = action_box.check(sets, norm, self.spec, self.config.policy.action_range, self.dir.set_path)
       state, info = self.fit(build_buffer(self.config, self.policy, sets, self.env), norm, r, init_state, steps)
-      return dict(info, num_episodes=sum(len(s.episodes) for s in sets)), state
+      return dict(info, num_episodes=sum(len(s.episodes) for s in sets), actions_clipped=clipped), state
 
     def save(state):
       checkpoint.save(self.dir.ckpt_dir(r), state, self.config, self.spec)

@@ -46,7 +46,7 @@ import functools
 import ml_collections
 
 from soe_jax.envs import registry as env_registry
-from soe_jax.experiment.schema import EXPLORERS, METHODS, VARIANTS
+from soe_jax.experiment.schema import ANY_METHOD_VARIANTS, EXPLORERS, METHODS, VARIANTS
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.policies.nets.resnet import RESNET18_WIDTHS
 
@@ -116,6 +116,9 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
       # bypass.batch_fraction: the share of each batch the IB path's head loss uses (1: all of it).
       bypass=dict(enabled=True, latent_dim=16, hidden=256, beta=1e-3, batch_fraction=1.0),
       normalizer_margin=0.1,
+      # The box action positions are normalised over: the task's `workspace` (every position its
+      # demonstrator commands, widened) or the `demonstrations`' range widened by normalizer_margin.
+      action_range="workspace",
     )
   )
   # checkpoint_every: steps between saves of a fit in progress (0: none), from which it resumes.
@@ -209,7 +212,7 @@ def apply_presets(
     value = presets[preset]
     if value is True:
       raise ValueError(f"the preset {preset} needs a value: {preset}=VALUE")
-    if not explorer:
+    if not explorer and preset not in ANY_METHOD_VARIANTS:
       raise ValueError(f"{preset}= goes with an exploring method ({', '.join(EXPLORERS)}), e.g. 'soe,{preset}={value}'")
     *sections, name = field.split(".")
     section = functools.reduce(getattr, sections, c)

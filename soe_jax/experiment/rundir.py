@@ -296,6 +296,10 @@ class RunDir:
         sets.append(episodes.EpisodeSet(found, q, True))
     return sets
 
+  def set_path(self, s: episodes.EpisodeSet) -> str:
+    """The file an episode group of the loop's was read from."""
+    return self.steered_path(s.source) if s.steered else self.data_path(s.source) if s.source else self.demos_path
+
   def fit_sets(self, r: int | None = None) -> tuple[list[episodes.EpisodeSet], dict]:
     """The episode groups round r's fit trained on (default r: the last round with a policy), as the
     loop gathers them: the demonstrations, the episodes each round up to r kept, the steered episodes

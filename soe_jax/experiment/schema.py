@@ -12,7 +12,8 @@ LOGGING = "log."
 # Fields that are no setting of an experiment: its training seed and where its shared round 0 lives.
 NOT_SETTINGS = ("seed", "rounds.round0_dir")
 # What a method's run and its control may differ in: the arm itself (how it explores, what it keeps).
-ARM = ("method", "explore.", "rounds.new_data", "rounds.select", "rounds.length_cap")
+# (The action range changes round 0 too; its arms pair with the control of the default range.)
+ARM = ("method", "explore.", "rounds.new_data", "rounds.select", "rounds.length_cap", "policy.action_range")
 
 # Sections that do not change round 0 (so methods differing only there share it), and fields that
 # change neither its parameters nor its numbers (the fit's in-fit evaluations).
@@ -39,6 +40,7 @@ ADDED = {
   "env.obs_mode": "low_dim",
   "env.image_size": 84,
   "data.image_frames": 0,
+  "policy.action_range": "demonstrations",
 }
 # Fields a run may resume with other values in: how it is logged and watched, and MJX's batch cap.
 NOT_COMPARED = (LOGGING, "env.mjx_max_batch")
@@ -61,6 +63,7 @@ REFITS = ("continue", "scratch")
 REFIT_EMA = ("restart", "carry")  # a continued re-fit's EMA
 STEERED = ("successful", "all")  # which steered episodes a fit takes
 NEW_DATA = ("kept", "expert", "none")  # what a round adds to the data
+ACTION_RANGES = ("workspace", "demonstrations")  # what action positions are normalised over
 # Fields that count something: at least 1.
 POSITIVE = ("env.episode_length", "env.mjx_max_batch", "data.num_demos", "data.capacity", "data.max_length", "policy.n_obs_steps",
             "policy.horizon", "policy.n_action_steps", "fit.num_steps", "fit.batch_size", "fit.chunk_size",
@@ -89,4 +92,7 @@ VARIANTS = {
   "alpha": ("explore.strategy.kwargs.alpha", "alpha"),
   "hold": ("explore.strategy.kwargs.hold", "hold"),
   "beta": ("policy.bypass.beta", "beta"),  # the KL ablation (round 0 too: its own, as the bypass trains there)
+  "range": ("policy.action_range", "range_"),  # (round 0 too; any method, the control too)
 }
+# Variants that go with any method, the control too (the others change how a method explores).
+ANY_METHOD_VARIANTS = ("range",)

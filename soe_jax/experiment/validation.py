@@ -51,6 +51,12 @@ def problems(config: ml_collections.ConfigDict) -> list[str]:
     out.append(f"unknown re-fit mode {config.rounds.refit!r}; known: {', '.join(schema.REFITS)}")
   if config.rounds.refit_ema not in schema.REFIT_EMA:
     out.append(f"unknown rounds.refit_ema {config.rounds.refit_ema!r}; known: {', '.join(schema.REFIT_EMA)}")
+  if config.policy.action_range not in schema.ACTION_RANGES:
+    known = ", ".join(schema.ACTION_RANGES)
+    out.append(f"unknown policy.action_range {config.policy.action_range!r}; known: {known}")
+  elif config.policy.action_range == "workspace" and config.env.action_mode == "absolute" and not out:
+    if env_registry.TASKS.factory(config.env.task).workspace is None:
+      out.append(f"task {config.env.task!r} has no workspace box; use policy.action_range=demonstrations")
   if config.rounds.new_data not in schema.NEW_DATA:
     out.append(f"unknown rounds.new_data {config.rounds.new_data!r}; known: {', '.join(schema.NEW_DATA)}")
   if config.rounds.steered not in schema.STEERED:

@@ -26,6 +26,11 @@ class NonFiniteLossError(FloatingPointError):
   what survives is the last checkpoint the caller wrote."""
 
 
+def training_batch(norm, raw: dict) -> dict:
+  """The batch the loss sees: sampled windows {"obs", "actions"} normalised."""
+  return {"obs": norm.normalize_obs(raw["obs"]), "actions": norm.normalize_actions(raw["actions"])}
+
+
 def make_train_step(policy: Policy, tx: optax.GradientTransformation, batch_size: int, mesh):
   data = sharding.batch_sharded(mesh)
 
@@ -35,8 +40,7 @@ def make_train_step(policy: Policy, tx: optax.GradientTransformation, batch_size
       buf, key_batch, batch_size, policy.horizon, policy.n_obs_steps, policy.n_action_steps
     )
     norm = state.normalizer
-    batch = {"obs": norm.normalize_obs(raw["obs"]), "actions": norm.normalize_actions(raw["actions"])}
-    batch = jax.lax.with_sharding_constraint(batch, data)
+    batch = jax.lax.with_sharding_constraint(training_batch(norm, raw), data)
     (loss, aux), grads = jax.value_and_grad(policy.loss, has_aux=True)(state.params, batch, key_loss)
     updates, opt_state = tx.update(grads, state.opt_state, state.params)
     params = optax.apply_updates(state.params, updates)

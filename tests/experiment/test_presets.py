@@ -1,6 +1,7 @@
 """The presets every config file shares (`presets`), the tasks' own numbers under them, and overrides of
 a config file's fields."""
 
+import ml_collections
 import pytest
 
 from configs import can as can_config
@@ -20,7 +21,7 @@ def test_method_presets_choose_the_strategy():
     lift_config.get_config("soe,dp")
   with pytest.raises(
     ValueError,
-    match="known presets: smoke, cpu, head, image, expert_data, select, length_cap, alpha, hold, beta, dp, sime,",
+    match="known presets: smoke, cpu, head, image, expert_data, select, length_cap, alpha, hold, beta, range, dp, sime,",
   ):
     lift_config.get_config("fast")
   with pytest.raises(ValueError, match="expert_data goes with an exploring method"):
@@ -37,6 +38,14 @@ def test_variant_presets_set_and_name_their_field():
   ablated = lift_config.get_config("soe,beta=0")
   assert (ablated.method, ablated.policy.bypass.beta) == ("soe-beta0", 0.0)
   assert rundir.round0_key(ablated) != rundir.round0_key(lift_config.get_config("soe"))  # a round 0 of its own
+  old = lift_config.get_config("control,range=demonstrations")  # any method, the control too
+  assert (old.method, old.policy.action_range, lift_config.get_config("").policy.action_range) == (
+    "control-range_demonstrations", "demonstrations", "workspace")
+  # A config saved before the field (read as `demonstrations`) keeps its round 0; the default has its own.
+  saved = rundir.plain(old)
+  del saved["policy"]["action_range"]
+  assert rundir.round0_key(ml_collections.ConfigDict(rundir.with_added(saved))) == rundir.round0_key(old)
+  assert rundir.round0_key(old) != rundir.round0_key(lift_config.get_config("control"))
   for presets, message in [
     ("control,select=sime", "goes with an exploring method"),
     ("soe,alpha", "needs a value: alpha=VALUE"),

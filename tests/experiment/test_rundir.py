@@ -97,6 +97,10 @@ def test_added_fields_read_as_their_old_behaviour(tmp_path):
       d = d[part]
     del d[name]
   (tmp_path / "config.json").write_text(json.dumps(saved))
+  # The one added field whose default changed since: such a workdir is on the demonstrations' range.
+  with pytest.raises(ValueError, match="policy.action_range: 'demonstrations' -> 'workspace'"):
+    rundir.check_config(str(tmp_path), config)
+  config.policy.action_range = "demonstrations"
   rundir.check_config(str(tmp_path), config)  # accepted as it is
   assert rundir.load_config(str(tmp_path)).rounds.steered == "successful"
   del saved["explore"]["strategy"]["kwargs"]["hold"]  # soe's settings: likewise

@@ -86,6 +86,8 @@ class Toy:
   object_dim = 3  # the goal's position
   object_layout = (("pos", 3),)
   image_cameras = ()
+  # The demonstrator commands the goal: its range, widened by 2 cm (`experts.workspace.MARGIN`).
+  workspace = (tuple(zip(*[(c - GOAL_RANGE - 0.02, c + GOAL_RANGE + 0.02) for c in (START + GOAL_OFFSET).tolist()])),)
 
   def __init__(self, config: ml_collections.ConfigDict | None = None):
     self.config = config if config is not None else self.default_config()

@@ -79,3 +79,38 @@ def test_image_obs_keep_low_dim_scaling_and_map_pixels_to_0_1():
   assert out["images"]["agentview_image"].dtype == jnp.float32
   beyond = {"lowdim": jnp.asarray([[2.0, 15.0]]), "images": {"agentview_image": jnp.asarray(images)}}
   assert float(norm.out_of_range_fraction(beyond)) == 0.5  # of the low-dim vector alone
+
+
+def _lift_box():
+  from soe_jax.data.spec import PolicySpec
+  from soe_jax.envs import registry
+
+  spec = PolicySpec.from_dict(registry.task_spec("lift", "absolute"))
+  return spec, spec.action_bounds()
+
+
+def test_the_workspace_box_maps_to_unit_range_and_the_loss_sees_an_action_beyond_the_demos_unclipped():
+  """Demonstrations spanning y in [-0.01, 0.02]; a buffer episode commanding y = 0.05, outside their
+  widened range but inside Lift's workspace: the batch the loss sees un-normalises to it within 1e-6
+  (under the demonstrations' range it would be clipped to 0.023)."""
+  import jax
+
+  from soe_jax.data import buffer as buffer_lib
+  from soe_jax.train import fit
+
+  spec, (lo, hi) = _lift_box()
+  rng = np.random.default_rng(0)
+  demos = np.tile(np.r_[0.0, 0.0, 0.9, np.zeros(6), 1.0], (200, 1)).astype(np.float32)
+  demos[:, 1] = rng.uniform(-0.01, 0.02, 200)
+  norm = normalizer.fit(np.zeros((200, 2)), demos, 0.1, action_box=(lo, hi))
+  corners = np.asarray(norm.normalize_actions(np.stack([np.where(np.isfinite(lo), lo, 0), np.where(np.isfinite(hi), hi, 0)])))
+  np.testing.assert_allclose(corners[:, :3], [[-1] * 3, [1] * 3], atol=1e-6)  # the box is [-1, 1]
+  target = np.r_[0.02, 0.05, 0.95, np.zeros(6), -1.0].astype(np.float32)
+  assert lo[1] < 0.05 < hi[1]
+  buf = buffer_lib.create(4, 32, 2, 10)
+  buf = buffer_lib.add(buf, np.zeros((1, 32, 2)), np.tile(target, (1, 32, 1)), np.array([32]), np.ones(1, bool), 1)
+  raw = buffer_lib.sample_windows(buf, jax.random.key(0), 8, 16, 2, 8)
+  seen = fit.training_batch(norm, raw)["actions"]
+  np.testing.assert_allclose(np.asarray(norm.unnormalize_actions(seen)), np.broadcast_to(target, seen.shape), atol=1e-6)
+  old = normalizer.fit(np.zeros((200, 2)), demos, 0.1)  # the demonstrations' range clips it
+  assert abs(float(old.unnormalize_actions(old.normalize_actions(target))[1]) - 0.05) > 0.02
