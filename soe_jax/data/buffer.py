@@ -126,14 +126,11 @@ def num_windows(buffer: EpisodeBuffer, horizon: int, n_obs_steps: int, n_action_
   return jnp.where(buffer.valid, jnp.maximum(w, 1), 0)
 
 
-def sample_windows(
-  buffer: EpisodeBuffer, key, batch_size: int, horizon: int, n_obs_steps: int, n_action_steps: int
-) -> dict:
-  """-> {"obs": (B, To, D) (with images: {"lowdim", "images"}), "actions": (B, T, A)}, raw (not
-  normalised)."""
+def windows(buffer: EpisodeBuffer, u, horizon: int, n_obs_steps: int, n_action_steps: int) -> dict:
+  """Windows number `u` (B,) of the buffer's `num_windows` in order (episode by episode) -> {"obs":
+  (B, To, D) (with images: {"lowdim", "images"}), "actions": (B, T, A)}, raw (not normalised)."""
   counts = num_windows(buffer, horizon, n_obs_steps, n_action_steps)
   cum = jnp.cumsum(counts)
-  u = jax.random.randint(key, (batch_size,), 0, cum[-1])
   ep = jnp.searchsorted(cum, u, side="right")
   start = u - (cum[ep] - counts[ep]) - (n_obs_steps - 1)
   idx = jnp.clip(start[:, None] + jnp.arange(horizon), 0, buffer.length[ep][:, None] - 1)
@@ -143,3 +140,12 @@ def sample_windows(
     obs = {"lowdim": obs, "images": {k: v[frames] for k, v in buffer.images.items()}}
   actions = buffer.actions[ep[:, None], idx]
   return {"obs": obs, "actions": actions}
+
+
+def sample_windows(
+  buffer: EpisodeBuffer, key, batch_size: int, horizon: int, n_obs_steps: int, n_action_steps: int
+) -> dict:
+  """`batch_size` windows drawn uniformly from all of them (`windows`)."""
+  total = jnp.sum(num_windows(buffer, horizon, n_obs_steps, n_action_steps))
+  u = jax.random.randint(key, (batch_size,), 0, total)
+  return windows(buffer, u, horizon, n_obs_steps, n_action_steps)

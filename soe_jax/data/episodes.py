@@ -78,6 +78,19 @@ def policy_frames(episodes: list[dict]) -> tuple[np.ndarray, np.ndarray]:
   return np.concatenate([e["policy_obs"] for e in flat]), np.concatenate([e["actions"] for e in flat])
 
 
+def policy_windows(episodes: list[dict], horizon: int, n_obs_steps: int, n_action_steps: int) -> dict:
+  """Every training window of `episodes` in order, as the fit samples them (`buffer.windows`): {"obs":
+  (N, To, D) low-dim, "actions": (N, T, A)} raw."""
+  flat = [policy_episode(e) for e in episodes]
+  longest = max(len(e["actions"]) for e in flat)
+  buf = buffer_lib.create(len(flat), longest, flat[0]["policy_obs"].shape[-1], flat[0]["actions"].shape[-1])
+  p = buffer_lib.pad_episodes(flat, longest)
+  buf = buffer_lib.add(buf, p["obs"], p["actions"], p["length"], np.ones(len(flat), bool), 0)
+  total = int(np.sum(buffer_lib.num_windows(buf, horizon, n_obs_steps, n_action_steps)))
+  out = buffer_lib.windows(buf, np.arange(total), horizon, n_obs_steps, n_action_steps)
+  return {k: np.asarray(v) for k, v in out.items()}
+
+
 def build_buffer(
   config: ml_collections.ConfigDict, policy, sets: list[EpisodeSet], env=None
 ) -> buffer_lib.EpisodeBuffer:

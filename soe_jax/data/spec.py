@@ -8,12 +8,14 @@ state, so a policy loads without the simulator's task registry; a task fills it
                     "agentview_image": {"shape": [84, 84, 3], "dtype": "uint8", "image": true}},
    "actions": [[["position", 3], ["rotation_6d", 6], ["gripper", 1]]],   one list per arm, in order
    "action_frame": "world", "control_hz": 20.0,
-   "action_box": [{"position": [[x, y, z], [x, y, z]]}]}   per arm, a part's lowest and highest values
+   "action_box": [{"position": [[x, y, z], [x, y, z]]}],   per arm, a part's lowest and highest values
+   "poses": [{"position": "robot0_eef_pos", "orientation": "robot0_eef_quat", "quat_order": "xyzw"}]}
 
 The low-dimensional observation keys are concatenated in the order given (images are not); the action
 is the arms' blocks one after another. `action_box` (optional) bounds the parts it names: the policy's
 action normaliser maps the box to [-1, 1] (`policy.action_range = workspace`), so the policy can
-command anything inside it and nothing outside.
+command anything inside it and nothing outside. `poses` (optional) names each arm's end-effector pose
+among the observations, which relative actions are expressed in (`policies.frames`).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ class PolicySpec:
   action_frame: str
   control_hz: float
   action_box: list | None = None  # per arm: {part: [lo (size,), hi (size,)]}
+  poses: list | None = None  # per arm: {"position": key, "orientation": key, "quat_order": "xyzw" | "wxyz"}
 
   def __post_init__(self):
     if self.action_frame not in ACTION_FRAMES:
@@ -103,6 +106,7 @@ class PolicySpec:
       action_frame=d["action_frame"],
       control_hz=float(d["control_hz"]),
       action_box=d.get("action_box"),
+      poses=d.get("poses"),
     )
 
 

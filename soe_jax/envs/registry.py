@@ -41,7 +41,7 @@ def task_spec(name: str, action_mode: str, cameras: tuple[str, ...] = (), image_
   low-dimensional keys in order, the camera images `cameras` (of those the task draws) as
   image_size-square uint8 images, each arm's action blocks, the action frame, the control rate and
   the action box: the task's workspace (absolute positions), or the controller's input range [-1, 1]
-  (robomimic's increments); none for a task without a workspace."""
+  (robomimic's increments); none for a task without a workspace; and each arm's end-effector pose keys."""
   sizes = observations.policy_obs_sizes(TASKS.factory(name).object_dim, num_robots(name))
   obs = {k: dict(shape=[n], dtype="float32") for k, n in sizes.items()}
   drawn = image_keys(name)
@@ -61,6 +61,10 @@ def task_spec(name: str, action_mode: str, cameras: tuple[str, ...] = (), image_
     action_frame="world" if action_mode == "absolute" else "delta",
     control_hz=1.0 / controller.CONTROL_DT,
     action_box=box,
+    poses=[
+      {"position": f"robot{k}_eef_pos", "orientation": f"robot{k}_eef_quat", "quat_order": "xyzw"}
+      for k in range(num_robots(name))
+    ],
   )
 
 

@@ -12,10 +12,11 @@ from __future__ import annotations
 import numpy as np
 from absl import logging
 
-from soe_jax.data.episodes import EpisodeSet
+from soe_jax.data.episodes import EpisodeSet, policy_windows
 from soe_jax.data.spec import PolicySpec
 from soe_jax.policies.normalizer import Normalizer
 from soe_jax.runtime.errors import UserError
+from soe_jax.train import fit as fit_lib
 
 
 def dimension_name(spec: PolicySpec, d: int) -> str:
@@ -28,9 +29,14 @@ def dimension_name(spec: PolicySpec, d: int) -> str:
   raise IndexError(f"the action has no dimension {d}")
 
 
-def check(sets: list[EpisodeSet], norm: Normalizer, spec: PolicySpec, mode: str, path_of) -> float:
+def check(sets: list[EpisodeSet], norm: Normalizer, spec: PolicySpec, mode: str, path_of, policy=None) -> float:
   """The fraction of the actions in `sets` with a coordinate outside the normaliser's box (0 under
-  `workspace`, where one is a `UserError`); `path_of(set)` names the file a set was read from."""
+  `workspace`, where one is a `UserError`); `path_of(set)` names the file a set was read from. For a
+  policy of relative poses (`policy.frame`), of the actions of every training window in its frame."""
+  if policy is not None and policy.frame is not None:
+    episodes = [ep for s in sets for ep in s.episodes]
+    w = fit_lib.in_frame(policy_windows(episodes, policy.horizon, policy.n_obs_steps, policy.n_action_steps), policy.frame)
+    return _report(float(np.mean(norm.outside(np.asarray(w["actions"])).any(-1))))
   outside, total = 0, 0
   for s in sets:
     for i, ep in enumerate(s.episodes):
@@ -49,7 +55,10 @@ def check(sets: list[EpisodeSet], norm: Normalizer, spec: PolicySpec, mode: str,
           "use policy.action_range=demonstrations"
         )
       outside += int(out.any(-1).sum())
-  fraction = outside / max(total, 1)
+  return _report(outside / max(total, 1))
+
+
+def _report(fraction: float) -> float:
   if fraction > 0:
     logging.warning(
       "%.2f%% of the training actions have a coordinate outside the demonstrations' action range and are "

@@ -222,7 +222,7 @@ class Experiment:
     """Round r's fit on `sets`, its policy saved with the record -> the fitted TrainState."""
 
     def work():
-      clipped = action_box.check(sets, norm, self.spec, self.config.policy.action_range, self.dir.set_path)
+      clipped = action_box.check(sets, norm, self.spec, self.config.policy.action_range, self.dir.set_path, self.policy)
       state, info = self.fit(build_buffer(self.config, self.policy, sets, self.env), norm, r, init_state, steps)
       return dict(info, num_episodes=sum(len(s.episodes) for s in sets), actions_clipped=clipped), state
 

@@ -119,6 +119,10 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
       # The box action positions are normalised over: the task's `workspace` (every position its
       # demonstrator commands, widened) or the `demonstrations`' range widened by normalizer_margin.
       action_range="workspace",
+      # The frame the policy's poses are in (`policies.frames`): as recorded (`absolute`), or each chunk
+      # and the observed end-effector poses in the frame of the latest observed pose (`chunk_relative`,
+      # with action_range=demonstrations: the relative displacements' range).
+      action_frame="absolute",
     )
   )
   # checkpoint_every: steps between saves of a fit in progress (0: none), from which it resumes.

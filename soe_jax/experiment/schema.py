@@ -41,6 +41,7 @@ ADDED = {
   "env.image_size": 84,
   "data.image_frames": 0,
   "policy.action_range": "demonstrations",
+  "policy.action_frame": "absolute",
 }
 # Fields a run may resume with other values in: how it is logged and watched, and MJX's batch cap.
 NOT_COMPARED = (LOGGING, "env.mjx_max_batch")

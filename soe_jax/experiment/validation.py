@@ -14,6 +14,7 @@ from soe_jax.envs import backends, controller, observations
 from soe_jax.envs import registry as env_registry
 from soe_jax.experiment import schema, select
 from soe_jax.explore import registry as strategy_registry
+from soe_jax.policies import frames
 from soe_jax.policies import registry as policy_registry
 from soe_jax.render import choice as render_choice
 from soe_jax.runtime.errors import UserError
@@ -54,6 +55,12 @@ def problems(config: ml_collections.ConfigDict) -> list[str]:
   if config.policy.action_range not in schema.ACTION_RANGES:
     known = ", ".join(schema.ACTION_RANGES)
     out.append(f"unknown policy.action_range {config.policy.action_range!r}; known: {known}")
+  elif config.policy.action_frame not in frames.FRAMES:
+    out.append(f"unknown policy.action_frame {config.policy.action_frame!r}; known: {', '.join(frames.FRAMES)}")
+  elif config.policy.action_frame == "chunk_relative" and (config.policy.action_range == "workspace" or config.env.action_mode != "absolute"):
+    out.append("policy.action_frame=chunk_relative takes absolute actions (env.action_mode=absolute) and normalises the "
+               "relative displacements over their range: set policy.action_range=demonstrations (the workspace box "
+               "bounds absolute positions)")  # fmt: skip
   elif config.policy.action_range == "workspace" and config.env.action_mode == "absolute" and not out:
     if env_registry.TASKS.factory(config.env.task).workspace is None:
       out.append(f"task {config.env.task!r} has no workspace box; use policy.action_range=demonstrations")

@@ -63,7 +63,8 @@ def candidates(
     z = jax.vmap(lambda m, s, k: steering.dimension_proposals(m, s, dim, k, num_proposals, alpha))(
       mu, log_std, jax.random.split(key_z, b)
     )
-    chunks = agent.executed(agent.decode_chunk(z.reshape(b * num_proposals, d), key_head))
+    history = jax.tree.map(lambda x: jnp.repeat(x, num_proposals, axis=0), obs_history)
+    chunks = agent.executed(agent.decode_chunk(z.reshape(b * num_proposals, d), key_head, history))
     chunks = chunks.reshape((b, num_proposals) + chunks.shape[1:])
     paths = observations.action_positions(chunks, num_robots)
     idx = jax.vmap(lambda p: steering.farthest_point_sampling(p, num_choices))(paths)

@@ -5,7 +5,9 @@ Every path from raw observations to raw actions goes through here: normalise the
 Diffusion Policy's chunk[To-1 : To-1+Ta] (B, Ta, A), which the rollout runs open loop; `chunk` is the
 whole predicted chunk. The observation history holds the last To policy observations, the first one
 repeated at reset: (B, To, D), or for an image policy {"lowdim": (B, To, D), "images": {key: (B, To,
-H, W, 3) uint8}} (`observations.policy_input`).
+H, W, 3) uint8}} (`observations.policy_input`). A policy whose poses are relative to the latest observed
+one (`policy.frame`, `frames`) gets its observations converted before they are normalised and its
+chunks converted back after they are unnormalised: here, raw means absolute.
 """
 
 from __future__ import annotations
@@ -34,10 +36,27 @@ class Agent:
     start = self.policy.n_obs_steps - 1
     return chunk[:, start : start + self.policy.n_action_steps]
 
+  def observe(self, obs_history):
+    """Raw observation histories -> the policy's normalised input (in its frame)."""
+    frame = self.policy.frame
+    if frame is not None:
+      if isinstance(obs_history, dict):
+        obs_history = dict(obs_history, lowdim=frame.observe(obs_history["lowdim"]))
+      else:
+        obs_history = frame.observe(obs_history)
+    return self.normalizer.normalize_obs(obs_history)
+
+  def actions(self, actions: jax.Array, obs_history) -> jax.Array:
+    """Normalised actions (B, T, A) sampled for `obs_history` -> raw absolute ones."""
+    actions = self.normalizer.unnormalize_actions(actions)
+    if self.policy.frame is not None:
+      lowdim = obs_history["lowdim"] if isinstance(obs_history, dict) else obs_history
+      actions = self.policy.frame.to_absolute(lowdim, actions)
+    return actions
+
   def chunk(self, obs_history: jax.Array, key: jax.Array, cond_fn=None) -> jax.Array:
     """Raw (B, T, A) from the base path a = D(E(o)); `cond_fn` perturbs the conditioning while sampling."""
-    actions = self.policy.sample(self.params, self.normalizer.normalize_obs(obs_history), key, cond_fn)
-    return self.normalizer.unnormalize_actions(actions)
+    return self.actions(self.policy.sample(self.params, self.observe(obs_history), key, cond_fn), obs_history)
 
   def act(self, obs_history: jax.Array, key: jax.Array, cond_fn=None) -> jax.Array:
     """Raw executed actions (B, Ta, A) from the base path."""
@@ -46,19 +65,19 @@ class Agent:
   def explore_chunk(self, obs_history: jax.Array, key: jax.Array, alpha, noise_key=None) -> tuple[jax.Array, jax.Array]:
     """Raw (B, T, A) from the exploration path with z ~ N(mu, (alpha sigma)^2), and z (B, d); the
     latent's noise from `noise_key` if given (else from `key`)."""
-    obs = self.normalizer.normalize_obs(obs_history)
-    actions, z = self.policy.sample_explore(self.params, obs, key, alpha, noise_key)
-    return self.normalizer.unnormalize_actions(actions), z
+    actions, z = self.policy.sample_explore(self.params, self.observe(obs_history), key, alpha, noise_key)
+    return self.actions(actions, obs_history), z
 
   def latent(self, obs_history: jax.Array) -> tuple[jax.Array, jax.Array]:
     """mu, log_std (B, d) of the latent for raw observation histories (B, To, D)."""
-    cond = self.policy.encode(self.params, self.normalizer.normalize_obs(obs_history))
+    cond = self.policy.encode(self.params, self.observe(obs_history))
     return self.policy.latent(self.params, cond)
 
-  def decode_chunk(self, z: jax.Array, key: jax.Array) -> jax.Array:
-    """Raw (B, T, A) decoded from latents z (B, d) through q_phi and the head."""
+  def decode_chunk(self, z: jax.Array, key: jax.Array, obs_history) -> jax.Array:
+    """Raw (B, T, A) decoded from latents z (B, d) through q_phi and the head, for the observation
+    histories (B, To, ...) the latents are of (a relative policy's chunks are converted against them)."""
     actions, _ = self.policy.head.sample(self.params["head"], self.policy.decode_latent(self.params, z), key)
-    return self.normalizer.unnormalize_actions(actions)
+    return self.actions(actions, obs_history)
 
 
 def initial_history(obs, n_obs_steps: int):

@@ -48,6 +48,10 @@ class Policy:
   bypass_fraction: float = 1.0
   # The camera images the encoder reads, beside the low-dim vector (none for a low-dim policy).
   image_keys: tuple[str, ...] = ()
+  # Where the poses are, for a policy whose poses are relative to the latest observed one
+  # (`policy.action_frame=chunk_relative`, `frames.PoseLayout`); None: absolute. The agent and the fit
+  # convert at the policy's edge, so the networks only ever see the policy's frame.
+  frame: object = None
   # A batch of one observation history in the encoder's format (arrays: left out of hashing).
   example_obs: object = dataclasses.field(default=None, compare=False, hash=False)
 

@@ -20,6 +20,7 @@ import orbax.checkpoint as ocp
 
 from soe_jax.data import spec as spec_lib
 from soe_jax.data.spec import PolicySpec
+from soe_jax.policies import frames
 from soe_jax.policies import normalizer as normalizer_lib
 from soe_jax.policies.agent import Agent
 from soe_jax.policies.policy import Policy, make_policy
@@ -44,6 +45,8 @@ def policy_from_spec(policy_config: ml_collections.ConfigDict, spec: PolicySpec)
   if shape is not None and shape[0] != shape[1]:
     raise ValueError(f"camera images of {shape[0]} x {shape[1]} pixels: the image encoder takes square images")
   policy = make_policy(policy_config, spec.obs_dim, spec.action_dim, shape[0] if shape else 84)
+  if policy_config.get("action_frame", "absolute") == "chunk_relative":
+    policy = dataclasses.replace(policy, frame=frames.PoseLayout.from_spec(spec))
   if set(policy.image_keys) != set(spec.image_keys):
     raise ValueError(
       f"the policy's encoder reads the images {list(policy.image_keys)}, the spec has {list(spec.image_keys)}"

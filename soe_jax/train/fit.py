@@ -26,8 +26,21 @@ class NonFiniteLossError(FloatingPointError):
   what survives is the last checkpoint the caller wrote."""
 
 
-def training_batch(norm, raw: dict) -> dict:
-  """The batch the loss sees: sampled windows {"obs", "actions"} normalised."""
+def in_frame(raw: dict, frame=None) -> dict:
+  """Sampled windows {"obs", "actions"} in the policy's frame (`frame`, a `frames.PoseLayout`, for
+  relative poses; None: as recorded), still raw."""
+  if frame is None:
+    return raw
+  obs, actions = raw["obs"], raw["actions"]
+  lowdim = obs["lowdim"] if isinstance(obs, dict) else obs
+  actions = frame.to_relative(lowdim, actions)
+  obs = dict(obs, lowdim=frame.observe(lowdim)) if isinstance(obs, dict) else frame.observe(obs)
+  return {"obs": obs, "actions": actions}
+
+
+def training_batch(norm, raw: dict, frame=None) -> dict:
+  """The batch the loss sees: sampled windows in the policy's frame (`in_frame`), normalised."""
+  raw = in_frame(raw, frame)
   return {"obs": norm.normalize_obs(raw["obs"]), "actions": norm.normalize_actions(raw["actions"])}
 
 
@@ -40,6 +53,7 @@ def make_train_step(policy: Policy, tx: optax.GradientTransformation, batch_size
       buf, key_batch, batch_size, policy.horizon, policy.n_obs_steps, policy.n_action_steps
     )
     norm = state.normalizer
+    raw = in_frame(raw, policy.frame)
     batch = jax.lax.with_sharding_constraint(training_batch(norm, raw), data)
     (loss, aux), grads = jax.value_and_grad(policy.loss, has_aux=True)(state.params, batch, key_loss)
     updates, opt_state = tx.update(grads, state.opt_state, state.params)

@@ -330,3 +330,21 @@ def test_a_fit_says_how_long_it_will_take(tmp_path, capsys):
   loop.run(config, str(tmp_path / "run"), progress=False)
   lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("round 0 fit: ")]
   assert len(lines) == 2 and " ms per step, about " in lines[0] and lines[0].endswith(" left of 60 steps"), lines
+
+
+def test_a_policy_of_relative_poses_runs_and_acts_in_absolute_poses(tmp_path):
+  """`policy.action_frame=chunk_relative`: round 0 and a round run; the normaliser spans the relative
+  displacements (the goal 0.26-0.40 m ahead of the point in the training windows, where the commanded
+  world x is 0.25-0.30 m); the agent's chunks go back to world positions: they reach goals."""
+  config = toy.get_config("smoke,soe")
+  config.policy.update(action_frame="chunk_relative", action_range="demonstrations")
+  config.rounds.num_rounds = 1
+  loop.run(config, str(tmp_path / "rel"), progress=False)
+  loaded = checkpoint.load(os.path.join(tmp_path, "rel", "rounds", "1", "ckpt"))
+  assert loaded.policy.frame is not None and loaded.policy.frame.obs_position == (0,)
+  norm = loaded.state.normalizer
+  lo, hi = (np.asarray(norm.unnormalize_actions(np.full(10, v)))[0] for v in (-1.0, 1.0))
+  assert 0.2 < lo < 0.26 and 0.38 < hi < 0.5  # x displacements from the point to the goal, widened
+  fit0 = json.load(open(RunDir(str(tmp_path / "rel"), config).phase_path(0, "fit")))
+  assert 0.0 <= fit0["actions_clipped"] < 0.05
+  assert np.mean(_evaluated(str(tmp_path / "rel"), 1)) > 0.2
