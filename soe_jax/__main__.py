@@ -19,6 +19,8 @@ COMMANDS = {
   "action_range": "round 0 on the workspace box against the demonstrations' range, by distance outside it",
   "video": "a run's stored episodes drawn to MP4",
   "steer": "steer a run's policy by hand in a local web page",
+  "fit": "a robot's policy fitted on a LeRobotDataset alone (round 0, no simulator)",
+  "refit": "a robot's policy re-fitted with recorded episodes labelled successful (the next round)",
   "serve": "serve a checkpoint's policy to a robot over openpi's websocket protocol",
   "experts": "scripted demonstrations of a task, optionally saved to HDF5",
   "export": "a run's data as robomimic HDF5, Diffusion Policy zarr or RLDS",

@@ -34,8 +34,8 @@ def demonstrations_box(config: ml_collections.ConfigDict) -> tuple[np.ndarray, n
   """The (lo, hi) robot0 positions, each (3,), that `policy.action_range = demonstrations` maps to
   [-1, 1] for `config`'s demonstrations."""
   env = task.env(config)
-  norm = normalizer.fit(*policy_frames(demonstrations(config, env, False)), float(config.policy.normalizer_margin),
-                        env.obs_min_span, env.num_robots)  # fmt: skip
+  frames = policy_frames(demonstrations(config, env, False), env.policy_obs_keys)
+  norm = normalizer.fit(*frames, float(config.policy.normalizer_margin), env.obs_min_span, env.num_robots)
   lo, hi = (np.asarray(norm.unnormalize_actions(np.full(env.action_size, v)), np.float64)[:3] for v in (-1.0, 1.0))
   return lo, hi
 
@@ -57,7 +57,9 @@ def seed_entry(seed_dir: str) -> dict:
   """One seed's states: distances outside the demonstrations' box and both round 0s' outcomes."""
   missing = [a for a in ARMS if not os.path.exists(os.path.join(seed_dir, a, "outcomes.json"))]
   if missing:
-    raise UserError(f"{seed_dir}: no finished {', '.join(missing)} run (campaign methods control,control+range=demonstrations)")
+    raise UserError(
+      f"{seed_dir}: no finished {', '.join(missing)} run (campaign methods control,control+range=demonstrations)"
+    )
   config = rundir.load_config(os.path.join(seed_dir, "control"))
   lo, hi = demonstrations_box(config)
   dist = distance_outside(object_positions(config)[:, :2], lo, hi)
@@ -78,7 +80,9 @@ def record(task_dir: str) -> dict:
   seeds = sorted(d for d in os.listdir(task_dir) if d.startswith("seed"))
   if not seeds:
     raise UserError(f"{task_dir}: no seed<k> directories")
-  return dict(task=os.path.basename(os.path.normpath(task_dir)), seeds=[seed_entry(os.path.join(task_dir, s)) for s in seeds])
+  return dict(
+    task=os.path.basename(os.path.normpath(task_dir)), seeds=[seed_entry(os.path.join(task_dir, s)) for s in seeds]
+  )
 
 
 def table(seeds: list[dict]) -> str:

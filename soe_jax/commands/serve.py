@@ -25,7 +25,9 @@ FLAGS = cli.Flags()
 FLAGS.string("checkpoint", None, "A checkpoint directory (a run's round<r>/ckpt, or what `fit` wrote).")
 FLAGS.string("host", "127.0.0.1", "Address to bind (other than loopback: reachable from the network).")
 FLAGS.integer("port", 8000, "Port (0: any free one).", lower_bound=0)
-FLAGS.integer("seed", 0, "Sampling seed: request n of a connection's episode e samples with fold_in(fold_in(seed, e), n).")
+FLAGS.integer(
+  "seed", 0, "Sampling seed: request n of a connection's episode e samples with fold_in(fold_in(seed, e), n)."
+)
 FLAGS.list("origin", [], "Browser origins allowed to connect (none by default; robots' clients send no Origin).")
 FLAGS.integer("max_message_mb", 16, "Largest frame accepted, in MiB.", lower_bound=1)
 
@@ -40,7 +42,9 @@ def _serve(argv: list[str]) -> None:
   except (FileNotFoundError, ValueError) as e:
     raise UserError(str(e)) from None
   if FLAGS.host not in LOOPBACK:
-    print(f"warning: serving on {FLAGS.host}, reachable from the network; only the token keeps strangers out", flush=True)
+    print(
+      f"warning: serving on {FLAGS.host}, reachable from the network; only the token keeps strangers out", flush=True
+    )
   token = os.environ.get(TOKEN_VARIABLE) or secrets.token_urlsafe(24)
   print(f"compiling the policy of {FLAGS.checkpoint} ...", flush=True)
   server = PolicyServer(loaded.agent, loaded.spec, token, FLAGS.host, FLAGS.port, FLAGS.seed, tuple(FLAGS.origin),

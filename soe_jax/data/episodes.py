@@ -14,7 +14,6 @@ import ml_collections
 import numpy as np
 
 from soe_jax.data import buffer as buffer_lib
-from soe_jax.envs import observations
 
 
 class EpisodeSet(NamedTuple):
@@ -37,13 +36,6 @@ def from_batch(obs: dict, actions, states, length, success, mask=None, next_obs:
   return out
 
 
-def from_rollout(out: dict, mask, num_robots: int = 1) -> list[dict]:
-  """The episodes of a rollout's output (`rollout.rollout`) where `mask` (N,) is set, for a task of
-  `num_robots` robots."""
-  obs, next_obs = (observations.split_policy_obs(out[k], num_robots) for k in ("obs", "next_obs"))
-  return from_batch(obs, out["actions"], out["states"], out["length"], out["success"], mask, next_obs)
-
-
 def draw_images(env, episodes: list[dict], keys: tuple[str, ...]) -> list[dict]:
   """Each episode's camera images `keys` at its states (the task's renderer, `env.draw`), put into
   its `obs` where it lacks them (a file's own images stay) -> the same episodes. All frames are drawn
@@ -51,6 +43,8 @@ def draw_images(env, episodes: list[dict], keys: tuple[str, ...]) -> list[dict]:
   todo = [ep for ep in episodes if any(k not in ep["obs"] for k in keys)]
   if not todo:
     return episodes
+  if env is None:
+    raise ValueError(f"episodes without the images {', '.join(keys)}, and no task (env=...) to draw them")
   if any("states" not in ep for ep in todo):
     raise ValueError("an episode without simulator states has no images to draw; image policies need states")
   nq = env.mj_model.nq
@@ -67,21 +61,27 @@ def draw_images(env, episodes: list[dict], keys: tuple[str, ...]) -> list[dict]:
   return episodes
 
 
-def policy_episode(ep: dict) -> dict:
-  """An episode -> {"policy_obs" (T, D), "actions" (T, A)} for the buffer."""
-  return {"policy_obs": observations.policy_obs(ep["obs"], xp=np), "actions": np.asarray(ep["actions"], np.float32)}
+def policy_episode(ep: dict, keys: tuple[str, ...]) -> dict:
+  """An episode -> {"policy_obs" (T, D): the low-dim observations `keys` (a spec's `lowdim_keys`, a
+  policy's) concatenated in that order, "actions" (T, A)} for the buffer."""
+  missing = [k for k in keys if k not in ep["obs"]]
+  if missing:
+    raise KeyError(f"the episode has no observation {', '.join(missing)} (it has {', '.join(ep['obs'])})")
+  parts = [np.asarray(ep["obs"][k], np.float32).reshape(len(ep["actions"]), -1) for k in keys]
+  return {"policy_obs": np.concatenate(parts, -1), "actions": np.asarray(ep["actions"], np.float32)}
 
 
-def policy_frames(episodes: list[dict]) -> tuple[np.ndarray, np.ndarray]:
+def policy_frames(episodes: list[dict], keys: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
   """All frames of `episodes`: (policy observations (N, D), actions (N, A)), e.g. for the normaliser."""
-  flat = [policy_episode(e) for e in episodes]
+  flat = [policy_episode(e, keys) for e in episodes]
   return np.concatenate([e["policy_obs"] for e in flat]), np.concatenate([e["actions"] for e in flat])
 
 
-def policy_windows(episodes: list[dict], horizon: int, n_obs_steps: int, n_action_steps: int) -> dict:
-  """Every training window of `episodes` in order, as the fit samples them (`buffer.windows`): {"obs":
-  (N, To, D) low-dim, "actions": (N, T, A)} raw."""
-  flat = [policy_episode(e) for e in episodes]
+def policy_windows(episodes: list[dict], policy) -> dict:
+  """Every training window of `episodes` in order, as the fit samples them for `policy`
+  (`buffer.windows`): {"obs": (N, To, D) low-dim, "actions": (N, T, A)} raw."""
+  horizon, n_obs_steps, n_action_steps = policy.horizon, policy.n_obs_steps, policy.n_action_steps
+  flat = [policy_episode(e, policy.lowdim_keys) for e in episodes]
   longest = max(len(e["actions"]) for e in flat)
   buf = buffer_lib.create(len(flat), longest, flat[0]["policy_obs"].shape[-1], flat[0]["actions"].shape[-1])
   p = buffer_lib.pad_episodes(flat, longest)
@@ -104,11 +104,9 @@ def build_buffer(
   for s in sets:
     if s.episodes:
       n = len(s.episodes)
-      p = buffer_lib.pad_episodes([policy_episode(e) for e in s.episodes], buf.max_length)
+      p = buffer_lib.pad_episodes([policy_episode(e, policy.lowdim_keys) for e in s.episodes], buf.max_length)
       buf = buffer_lib.add(buf, p["obs"], p["actions"], p["length"], np.ones(n, bool), s.source, np.full(n, s.steered))
   if policy.image_keys:
-    if env is None:
-      raise ValueError("an image policy's buffer needs the task (env=...) to draw its episodes' images")
     stored = [ep for s in sets for ep in s.episodes]
     draw_images(env, stored, policy.image_keys)
     images = [{k: np.asarray(ep["obs"][k], np.uint8) for k in policy.image_keys} for ep in stored]

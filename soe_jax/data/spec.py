@@ -9,13 +9,17 @@ state, so a policy loads without the simulator's task registry; a task fills it
    "actions": [[["position", 3], ["rotation_6d", 6], ["gripper", 1]]],   one list per arm, in order
    "action_frame": "world", "control_hz": 20.0,
    "action_box": [{"position": [[x, y, z], [x, y, z]]}],   per arm, a part's lowest and highest values
-   "poses": [{"position": "robot0_eef_pos", "orientation": "robot0_eef_quat", "quat_order": "xyzw"}]}
+   "poses": [{"position": "robot0_eef_pos", "orientation": "robot0_eef_quat", "quat_order": "xyzw"}],
+   "action_norm": [{"gripper": "range"}]}   per arm, how a part is normalised (default: position range)
 
 The low-dimensional observation keys are concatenated in the order given (images are not); the action
 is the arms' blocks one after another. `action_box` (optional) bounds the parts it names: the policy's
 action normaliser maps the box to [-1, 1] (`policy.action_range = workspace`), so the policy can
 command anything inside it and nothing outside. `poses` (optional) names each arm's end-effector pose
-among the observations, which relative actions are expressed in (`policies.frames`).
+among the observations, which relative actions are expressed in (`policies.frames`). `action_norm`
+(optional) says per arm which parts the normaliser maps to [-1, 1] ("range") and which it leaves as
+they are ("identity"): positions by range, rotation-6d and the simulator's gripper (already in
+[-1, 1]) as they are, by default; a real gripper in metres or counts by range.
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ class PolicySpec:
   control_hz: float
   action_box: list | None = None  # per arm: {part: [lo (size,), hi (size,)]}
   poses: list | None = None  # per arm: {"position": key, "orientation": key, "quat_order": "xyzw" | "wxyz"}
+  action_norm: list | None = None  # per arm: {part: "range" | "identity"} (default: position range)
 
   def __post_init__(self):
     if self.action_frame not in ACTION_FRAMES:
@@ -92,6 +97,18 @@ class PolicySpec:
         hi += box[part][1] if part in box else [np.inf] * size
     return np.asarray(lo, np.float64), np.asarray(hi, np.float64)
 
+  def ranged_action_dims(self) -> np.ndarray:
+    """(action_dim,) bool: the dims the normaliser maps to [-1, 1] (`action_norm`; positions by default)."""
+    out = []
+    for k, arm in enumerate(self.actions):
+      rule = (self.action_norm or [{}] * len(self.actions))[k]
+      for part, size in arm:
+        how = rule.get(part, "range" if part == "position" else "identity")
+        if how not in ("range", "identity"):
+          raise ValueError(f"action_norm: arm {k}'s {part} is normalised by {how!r}; known: range, identity")
+        out += [how == "range"] * size
+    return np.asarray(out, bool)
+
   def to_dict(self) -> dict:
     return dataclasses.asdict(self)
 
@@ -107,6 +124,7 @@ class PolicySpec:
       control_hz=float(d["control_hz"]),
       action_box=d.get("action_box"),
       poses=d.get("poses"),
+      action_norm=d.get("action_norm"),
     )
 
 

@@ -35,7 +35,7 @@ def check(sets: list[EpisodeSet], norm: Normalizer, spec: PolicySpec, mode: str,
   policy of relative poses (`policy.frame`), of the actions of every training window in its frame."""
   if policy is not None and policy.frame is not None:
     episodes = [ep for s in sets for ep in s.episodes]
-    w = fit_lib.in_frame(policy_windows(episodes, policy.horizon, policy.n_obs_steps, policy.n_action_steps), policy.frame)
+    w = fit_lib.in_frame(policy_windows(episodes, policy), policy.frame)
     return _report(float(np.mean(norm.outside(np.asarray(w["actions"])).any(-1))))
   outside, total = 0, 0
   for s in sets:
@@ -62,6 +62,7 @@ def _report(fraction: float) -> float:
   if fraction > 0:
     logging.warning(
       "%.2f%% of the training actions have a coordinate outside the demonstrations' action range and are "
-      "clipped to it (policy.action_range=demonstrations; the workspace box clips none)", 100 * fraction
+      "clipped to it (policy.action_range=demonstrations; the workspace box clips none)",
+      100 * fraction,
     )
   return fraction

@@ -27,14 +27,13 @@ import os
 import ml_collections
 
 from soe_jax.data import hdf5
-from soe_jax.data.episodes import EpisodeSet, build_buffer, policy_frames, policy_windows
+from soe_jax.data.episodes import EpisodeSet, build_buffer
 from soe_jax.experiment import rundir, runlog, validation
 from soe_jax.experiment.phases import Experiment
 from soe_jax.experiment.rundir import RunDir
 from soe_jax.experts import collect
-from soe_jax.policies import normalizer as normalizer_lib
 from soe_jax.runtime import atomic
-from soe_jax.train import fit as fit_lib
+from soe_jax.train import normalization
 
 
 def demonstrations(config: ml_collections.ConfigDict, env, progress: bool) -> list[dict]:
@@ -50,21 +49,6 @@ def demonstrations(config: ml_collections.ConfigDict, env, progress: bool) -> li
   return collect.demonstrations(env, n, int(config.data.demo_seed), progress)
 
 
-def fit_normalizer(exp: Experiment, demos: list[dict]) -> normalizer_lib.Normalizer:
-  """The normaliser's statistics from the demonstrations: their frames, or for a policy of relative
-  poses every training window's in its frame; action positions over the task's workspace box under
-  `policy.action_range=workspace`."""
-  p = exp.policy
-  if p.frame is None:
-    obs, actions = policy_frames(demos)
-  else:
-    w = fit_lib.in_frame(policy_windows(demos, p.horizon, p.n_obs_steps, p.n_action_steps), p.frame)
-    obs, actions = w["obs"].reshape(-1, p.obs_dim), w["actions"].reshape(-1, p.action_dim)
-  box = exp.spec.action_bounds() if exp.config.policy.action_range == "workspace" else None
-  margin = float(exp.config.policy.normalizer_margin)
-  return normalizer_lib.fit(obs, actions, margin, exp.env.obs_min_span, exp.env.num_robots, action_box=box)
-
-
 def round0(exp: Experiment) -> tuple:
   """Round 0 in its shared directory: demonstrations, fit, evaluation (each reused when present)."""
   run = exp.dir
@@ -76,7 +60,9 @@ def round0(exp: Experiment) -> tuple:
       dict(env_name=exp.env.name, env_kwargs=exp.env.config.to_dict(), source="demonstrations"),
     )
   demos = run.demonstrations()
-  norm = fit_normalizer(exp, demos)
+  c = exp.config
+  norm = normalization.fit_normalizer(exp.policy, exp.spec, demos, c.policy.action_range,
+                                      float(c.policy.normalizer_margin), exp.env.obs_min_span)  # fmt: skip
   state = exp.fit_phase(0, [EpisodeSet(demos, 0)], norm)
   exp.evaluate_phase(0, state)
   exp.videos(0)

@@ -13,7 +13,7 @@ import ml_collections
 import numpy as np
 
 from soe_jax import metrics
-from soe_jax.data.episodes import EpisodeSet, build_buffer, from_rollout
+from soe_jax.data.episodes import EpisodeSet, build_buffer
 from soe_jax.experiment import action_box, runlog, task, video
 from soe_jax.experiment import select as select_lib
 from soe_jax.experiment.rundir import RunDir
@@ -101,7 +101,7 @@ class Experiment:
   def shown(self, out: dict) -> list[dict]:
     """A rollout's first `log.videos` episodes, to be watched."""
     n = len(out["success"])
-    return from_rollout(out, np.arange(n) < int(self.config.log.videos), self.env.num_robots)
+    return rollout.from_rollout(out, np.arange(n) < int(self.config.log.videos), self.env.num_robots)
 
   def explore(self, state, r: int, buf) -> tuple[dict, list[dict], list[dict]]:
     """Round r's exploration with the configured strategy, prepared on the data in `buf` -> (record,
@@ -132,7 +132,7 @@ class Experiment:
       rec["steered_fraction"] = float(out["aux"]["steered"].mean())
     if self.config.rounds.new_data == "expert":
       return (*self.expert_episodes(reset_keys[keep], rec), self.shown(out))
-    return rec, from_rollout(out, keep, self.env.num_robots), self.shown(out)
+    return rec, rollout.from_rollout(out, keep, self.env.num_robots), self.shown(out)
 
   def expert_episodes(self, reset_keys, rec: dict) -> tuple[dict, list[dict]]:
     """The oracle's data: the scripted demonstrator's episodes from `reset_keys` (the start states an

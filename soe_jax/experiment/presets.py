@@ -46,6 +46,7 @@ import functools
 import ml_collections
 
 from soe_jax.envs import registry as env_registry
+from soe_jax.experiment import sections as config_sections
 from soe_jax.experiment.schema import ANY_METHOD_VARIANTS, EXPLORERS, METHODS, VARIANTS
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.policies.nets.resnet import RESNET18_WIDTHS
@@ -96,55 +97,8 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
     dict(num_demos=num_demos, demo_seed=1000, hdf5_path="", filter_key="", max_length=400, capacity=2048,
          image_frames=0)
   )  # fmt: skip
-  c.policy = ml_collections.ConfigDict(
-    dict(
-      n_obs_steps=2,
-      horizon=16,
-      n_action_steps=8,
-      head=dict(
-        name="diffusion_unet",
-        kwargs=dict(
-          down_dims=(256, 512, 1024),
-          step_embed_dim=256,
-          kernel_size=5,
-          n_groups=8,
-          sampler="ddim",
-          num_inference_steps=10,
-        ),
-      ),
-      encoder=dict(name="lowdim", kwargs={}),
-      # bypass.batch_fraction: the share of each batch the IB path's head loss uses (1: all of it).
-      bypass=dict(enabled=True, latent_dim=16, hidden=256, beta=1e-3, batch_fraction=1.0),
-      normalizer_margin=0.1,
-      # The box action positions are normalised over: the task's `workspace` (every position its
-      # demonstrator commands, widened) or the `demonstrations`' range widened by normalizer_margin.
-      action_range="workspace",
-      # The frame the policy's poses are in (`policies.frames`): as recorded (`absolute`), or each chunk
-      # and the observed end-effector poses in the frame of the latest observed pose (`chunk_relative`,
-      # with action_range=demonstrations: the relative displacements' range).
-      action_frame="absolute",
-    )
-  )
-  # checkpoint_every: steps between saves of a fit in progress (0: none), from which it resumes.
-  # eval_every: steps between evaluations of the EMA policy during the fit (0: none), from eval_states
-  # start states of the evaluation seed, the same states and sampling key each time; success against
-  # steps and time goes into the fit's record.
-  c.fit = ml_collections.ConfigDict(
-    dict(
-      num_steps=25_000,
-      batch_size=256,
-      chunk_size=250,
-      lr=3e-4,
-      warmup_steps=500,
-      betas=(0.95, 0.999),
-      eps=1e-8,
-      weight_decay=1e-6,
-      ema=True,
-      checkpoint_every=1000,
-      eval_every=0,
-      eval_states=50,
-    )
-  )
+  c.policy = config_sections.policy()
+  c.fit = config_sections.fit()
   # Rollouts (evaluation and exploration): environments per compiled slice (0: all), decisions per call.
   c.rollout = ml_collections.ConfigDict(dict(slice_size=0, decisions_per_call=10))
   # Exploration: `tries` rollouts from each of `num_start_states` start states per round, with a
@@ -230,22 +184,19 @@ def apply_presets(
       ) from None
     c.method = f"{c.method}-{suffix}{value}"
   steer = c.explore.strategy.kwargs if c.explore.strategy.name == "soe_steer" else None
-  head_kwargs = c.policy.head.kwargs
   if presets.get("cpu"):
     # The recipe that converged fastest on a 2-core CPU (BENCHMARKS.md, "Convergence of round 0"): the
     # narrow UNet 32/64/128, AdamW 1e-3 at batch 64; re-fits continue at 3e-4 with the EMA carried on.
     # (The IB path's head loss on a quarter of each batch fits 20% faster but explores worse.)
-    head_kwargs.update(down_dims=(32, 64, 128), step_embed_dim=128)
-    c.fit.update(num_steps=cpu_steps, batch_size=64, lr=1e-3, warmup_steps=250, chunk_size=250)
+    config_sections.cpu_recipe(c)
+    c.fit.num_steps = cpu_steps
     c.data.num_demos = cpu_demos or c.data.num_demos
     c.rounds.update(num_rounds=1, refit_steps=3000, refit_lr=3e-4, refit_ema="carry")
     if steer is not None:  # a whole round of 500 steered episodes: lighter steering
       steer.update(num_proposals=8, every=4, max_dims=2)
   if presets.get("smoke"):
-    head_kwargs.update(down_dims=(16, 32, 64), step_embed_dim=32)
-    c.policy.bypass.hidden = 32
+    config_sections.smoke_recipe(c)
     c.data.num_demos = min(c.data.num_demos, 4)
-    c.fit.update(num_steps=40, chunk_size=20, batch_size=32, warmup_steps=10, checkpoint_every=20)
     c.data.capacity = 64
     c.env.episode_length = smoke_episode_length or c.env.episode_length
     c.explore.update(num_start_states=3, tries=2)

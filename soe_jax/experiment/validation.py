@@ -57,7 +57,9 @@ def problems(config: ml_collections.ConfigDict) -> list[str]:
     out.append(f"unknown policy.action_range {config.policy.action_range!r}; known: {known}")
   elif config.policy.action_frame not in frames.FRAMES:
     out.append(f"unknown policy.action_frame {config.policy.action_frame!r}; known: {', '.join(frames.FRAMES)}")
-  elif config.policy.action_frame == "chunk_relative" and (config.policy.action_range == "workspace" or config.env.action_mode != "absolute"):
+  elif config.policy.action_frame == "chunk_relative" and (
+    config.policy.action_range == "workspace" or config.env.action_mode != "absolute"
+  ):
     out.append("policy.action_frame=chunk_relative takes absolute actions (env.action_mode=absolute) and normalises the "
                "relative displacements over their range: set policy.action_range=demonstrations (the workspace box "
                "bounds absolute positions)")  # fmt: skip

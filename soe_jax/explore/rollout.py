@@ -34,6 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 import tqdm
 
+from soe_jax.data.episodes import from_batch
 from soe_jax.envs import observations
 from soe_jax.policies import agent as agent_lib
 from soe_jax.policies.agent import Agent
@@ -185,3 +186,10 @@ def rollout(
   out = {k: np.concatenate([p[k] for p in parts], 0)[:n] for k in parts[0] if k != "aux"}
   out["aux"] = {k: np.concatenate([p["aux"][k] for p in parts], 0)[:n] for k in parts[0]["aux"]}
   return out
+
+
+def from_rollout(out: dict, mask, num_robots: int = 1) -> list[dict]:
+  """The episodes of a rollout's output (`rollout.rollout`) where `mask` (N,) is set, for a task of
+  `num_robots` robots."""
+  obs, next_obs = (observations.split_policy_obs(out[k], num_robots) for k in ("obs", "next_obs"))
+  return from_batch(obs, out["actions"], out["states"], out["length"], out["success"], mask, next_obs)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 
 import jax.numpy as jnp
+import numpy as np
 
 from soe_jax.data import poses
 
@@ -27,7 +28,8 @@ FRAMES = ("absolute", "chunk_relative")
 class PoseLayout:
   """Where the poses are: per arm, the offsets in the low-dim observation vector of its end-effector
   position (3) and orientation quaternion (4, `quat_order` "xyzw" or "wxyz"), and in the action of its
-  position (3) and rotation-6d (6)."""
+  position (3) and rotation-6d (6). The spec names a pose part by its key or by [key, offset into it]
+  (a robot's `observation.state` holding both)."""
 
   obs_position: tuple[int, ...]
   obs_quat: tuple[int, ...]
@@ -46,13 +48,29 @@ class PoseLayout:
     offsets, at = {}, 0
     for key in spec.lowdim_keys:
       offsets[key] = at
-      at += int(jnp.prod(jnp.asarray(spec.observations[key]["shape"])))
+      at += int(np.prod(spec.observations[key]["shape"]))
     fields = {f: [] for f in ("obs_position", "obs_quat", "quat_order", "action_position", "action_rot6d")}
+
+    def where(k, name, ref, size):
+      """A pose part's offset: a key (its first `size` numbers) or [key, offset into it]."""
+      key, at = (ref, 0) if isinstance(ref, str) else tuple(ref) if isinstance(ref, (list, tuple)) else (None, 0)
+      if key not in offsets:
+        raise ValueError(
+          f"the spec's pose of arm {k}: {name} {ref!r} is not a low-dim observation key (or [key, offset])"
+        )
+      if not 0 <= at <= sizes[key] - size:
+        raise ValueError(
+          f"the spec's pose of arm {k}: {name} {ref!r} needs {size} numbers at {at} of {key!r} ({sizes[key]})"
+        )
+      return offsets[key] + at
+
+    sizes = {k: int(np.prod(spec.observations[k]["shape"])) for k in spec.lowdim_keys}
     base = 0
     for k, (arm, pose) in enumerate(zip(spec.actions, spec.poses)):
-      for name in ("position", "orientation"):
-        if pose.get(name) not in offsets:
-          raise ValueError(f"the spec's pose of arm {k}: {name} {pose.get(name)!r} is not a low-dim observation key")
+      position, orientation = (
+        where(k, "position", pose.get("position"), 3),
+        where(k, "orientation", pose.get("orientation"), 4),
+      )
       order = pose.get("quat_order", "xyzw")
       if order not in ("xyzw", "wxyz"):
         raise ValueError(f"the spec's pose of arm {k}: quat_order {order!r} is not xyzw or wxyz")
@@ -61,9 +79,11 @@ class PoseLayout:
         parts[part] = at
         at += size
       if "position" not in parts or "rotation_6d" not in parts:
-        raise ValueError(f"chunk_relative needs each arm's action to hold position and rotation_6d, arm {k} has {list(parts)}")
-      fields["obs_position"].append(offsets[pose["position"]])
-      fields["obs_quat"].append(offsets[pose["orientation"]])
+        raise ValueError(
+          f"chunk_relative needs each arm's action to hold position and rotation_6d, arm {k} has {list(parts)}"
+        )
+      fields["obs_position"].append(position)
+      fields["obs_quat"].append(orientation)
       fields["quat_order"].append(order)
       fields["action_position"].append(parts["position"])
       fields["action_rot6d"].append(parts["rotation_6d"])

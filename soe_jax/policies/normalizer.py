@@ -87,17 +87,22 @@ def fit(
   obs_min_span: np.ndarray | None = None,
   num_robots: int = 1,
   action_box: tuple[np.ndarray, np.ndarray] | None = None,
+  ranged: np.ndarray | None = None,
 ) -> Normalizer:
   """From all demonstration frames: obs (N, D), actions (N, A). `obs_min_span` (D,): the smallest span
   each observation dimension maps to [-1, 1] (none by default). The actions are `num_robots` equal
   blocks, each a position (its first 3 dims, normalised) and then rotation and gripper (kept as they
-  are). `action_box` (lo, hi), each (A,) (`PolicySpec.action_bounds`): the position dims it bounds map
-  it to [-1, 1] instead of the data's widened range."""
+  are); `ranged` (A,) bool (`PolicySpec.ranged_action_dims`) names the normalised dims instead (a real
+  gripper's opening in metres too). `action_box` (lo, hi), each (A,) (`PolicySpec.action_bounds`): the
+  normalised dims it bounds map it to [-1, 1] instead of the data's widened range."""
   floor = None if obs_min_span is None else np.asarray(obs_min_span, np.float64)
   obs_scale, obs_offset = _limits(np.asarray(obs, np.float64), margin, floor)
   act_scale, act_offset = _limits(np.asarray(actions, np.float64), margin)
-  block = act_scale.shape[0] // num_robots
-  ident = np.arange(act_scale.shape[0]) % block >= 3
+  if ranged is None:
+    block = act_scale.shape[0] // num_robots
+    ident = np.arange(act_scale.shape[0]) % block >= 3
+  else:
+    ident = ~np.asarray(ranged, bool)
   if action_box is not None:
     lo, hi = (np.asarray(x, np.float64) for x in action_box)
     boxed = ~ident & np.isfinite(lo) & np.isfinite(hi)

@@ -48,6 +48,8 @@ class Policy:
   bypass_fraction: float = 1.0
   # The camera images the encoder reads, beside the low-dim vector (none for a low-dim policy).
   image_keys: tuple[str, ...] = ()
+  # The observation keys the low-dim vector concatenates, in order (the spec's; data.episodes reads them).
+  lowdim_keys: tuple[str, ...] = ()
   # Where the poses are, for a policy whose poses are relative to the latest observed one
   # (`policy.action_frame=chunk_relative`, `frames.PoseLayout`); None: absolute. The agent and the fit
   # convert at the policy's edge, so the networks only ever see the policy's frame.
@@ -114,10 +116,10 @@ class Policy:
     return actions, z
 
 
-def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int, image_size: int = 84) -> Policy:
+def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int, image_size=84) -> Policy:
   """From `config.policy`-shaped settings: head {name, kwargs}, encoder {name, kwargs}, bypass
   {enabled, latent_dim, hidden, beta, batch_fraction}, n_obs_steps, horizon, n_action_steps; an image
-  encoder's images are `image_size` pixels square."""
+  encoder's images are `image_size` pixels square, or (height, width)."""
   head = registry.make_head(
     config.head.name, action_dim=action_dim, horizon=config.horizon, **config.head.get("kwargs", {})
   )
@@ -125,7 +127,8 @@ def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int
   example = jnp.zeros((1, config.n_obs_steps, obs_dim))
   image_keys = tuple(encoder.cameras) if config.encoder.name == "image" else ()
   if image_keys:
-    shape = (1, config.n_obs_steps, image_size, image_size, 3)
+    h, w = (image_size, image_size) if isinstance(image_size, int) else image_size
+    shape = (1, config.n_obs_steps, int(h), int(w), 3)
     example = {"images": {k: jnp.zeros(shape) for k in image_keys}, "lowdim": example}
   cond_dim = jax.eval_shape(lambda: encoder.init_with_output(jax.random.key(0), example)[0]).shape[-1]
   bp = config.bypass

@@ -63,7 +63,9 @@ class PolicyServer:
     given = request.headers.get("Authorization", "")
     if not hmac.compare_digest(given.encode(), f"Api-Key {self.token}".encode()):
       log.warning("refused a handshake from %s without the token", connection.remote_address)
-      return connection.respond(http.HTTPStatus.UNAUTHORIZED, "the server's token is required: Authorization: Api-Key <token>\n")
+      return connection.respond(
+        http.HTTPStatus.UNAUTHORIZED, "the server's token is required: Authorization: Api-Key <token>\n"
+      )
     return None
 
   def _handle(self, connection: ws_server.ServerConnection) -> None:

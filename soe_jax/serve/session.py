@@ -44,7 +44,8 @@ def request_key(seed: int, episode: int, step: int) -> jax.Array:
 
 
 @functools.lru_cache(maxsize=8)
-def _chunk_fn(policy):
+def chunk_fn(policy):
+  """The compiled (agent, history, key) -> chunk the server samples with (one per policy)."""
   return jax.jit(lambda agent, history, key: agent.chunk(history, key))
 
 
@@ -69,7 +70,9 @@ def policy_input(spec: PolicySpec, obs: dict):
       images[key] = value[None]
     else:
       if value.dtype.kind not in "fiu" or value.shape != shape:
-        raise RequestError(f"observation {key!r} must be numbers of shape {list(shape)}, got {value.dtype} {list(value.shape)}")
+        raise RequestError(
+          f"observation {key!r} must be numbers of shape {list(shape)}, got {value.dtype} {list(value.shape)}"
+        )
       if not np.all(np.isfinite(value)):
         raise RequestError(f"observation {key!r} is not finite: {value.tolist()}")
       parts.append(value.astype(np.float32).reshape(-1))
@@ -103,7 +106,7 @@ class Session:
       self.history = agent_lib.push_history(self.history, x)
     key = request_key(self.seed, self.episode, self.step)
     self.step += 1
-    chunk = _chunk_fn(self.agent.policy)(self.agent, self.history, key)
+    chunk = chunk_fn(self.agent.policy)(self.agent, self.history, key)
     actions = np.asarray(jax.device_get(self.agent.executed(chunk))[0], np.float32)
     self.check(actions)
     dt = 1.0 / self.spec.control_hz
@@ -123,11 +126,12 @@ class Session:
           f"[{lo[d]:.5f}, {hi[d]:.5f}]); nothing was sent"
         )
 
+
 def warm_up(agent: Agent, spec: PolicySpec) -> None:
   """Compile the chunk of one observation history (before a server listens)."""
   zeros = {k: np.zeros(v["shape"], np.uint8 if v.get("image") else np.float32) for k, v in spec.observations.items()}
   history = agent_lib.initial_history(policy_input(spec, zeros), agent.policy.n_obs_steps)
-  jax.block_until_ready(_chunk_fn(agent.policy)(agent, history, request_key(0, 0, 0)))
+  jax.block_until_ready(chunk_fn(agent.policy)(agent, history, request_key(0, 0, 0)))
 
 
 def metadata(spec: PolicySpec, agent: Agent) -> dict:

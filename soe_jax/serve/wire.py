@@ -50,7 +50,9 @@ def _unpack(obj: dict):
       raise WireError(f"an array's shape must be a list of sizes, got {shape!r}")
     if not isinstance(data, bytes) or len(data) != math.prod(shape) * dtype.itemsize:
       size = len(data) if isinstance(data, bytes) else type(data).__name__
-      raise WireError(f"an array of shape {list(shape)} and dtype {dtype} needs {math.prod(shape) * dtype.itemsize} bytes, got {size}")
+      raise WireError(
+        f"an array of shape {list(shape)} and dtype {dtype} needs {math.prod(shape) * dtype.itemsize} bytes, got {size}"
+      )
     return np.frombuffer(data, dtype).reshape(tuple(shape))
   if b"__npgeneric__" in obj:
     return _dtype(obj.get(b"dtype")).type(obj.get(b"data"))

@@ -41,10 +41,8 @@ FORMAT = 3
 
 def policy_from_spec(policy_config: ml_collections.ConfigDict, spec: PolicySpec) -> Policy:
   """The policy `policy_config` (a config's `policy` section) describes, sized by `spec`."""
-  shape = spec.image_shape
-  if shape is not None and shape[0] != shape[1]:
-    raise ValueError(f"camera images of {shape[0]} x {shape[1]} pixels: the image encoder takes square images")
-  policy = make_policy(policy_config, spec.obs_dim, spec.action_dim, shape[0] if shape else 84)
+  policy = make_policy(policy_config, spec.obs_dim, spec.action_dim, spec.image_shape or 84)
+  policy = dataclasses.replace(policy, lowdim_keys=spec.lowdim_keys)
   if policy_config.get("action_frame", "absolute") == "chunk_relative":
     policy = dataclasses.replace(policy, frame=frames.PoseLayout.from_spec(spec))
   if set(policy.image_keys) != set(spec.image_keys):

@@ -14,6 +14,7 @@ from soe_jax.commands import export as export_command
 from soe_jax.commands import inspect as inspect_command
 from soe_jax.data import export, hdf5, inspect
 from soe_jax.data.episodes import build_buffer
+from soe_jax.envs import observations
 from soe_jax.experiment.rundir import RunDir
 from soe_jax.runtime.errors import UserError
 
@@ -35,7 +36,8 @@ def run_with_data(smoke_run, tmp_path_factory):
 
 
 def _buffer(config, sets):
-  dims = types.SimpleNamespace(obs_dim=19, action_dim=10, image_keys=())  # lift's low-dim policy: its sizes
+  keys = observations.policy_obs_keys(1)  # lift's low-dim policy: its sizes and keys
+  dims = types.SimpleNamespace(obs_dim=19, action_dim=10, image_keys=(), lowdim_keys=keys)
   return build_buffer(config, dims, sets)
 
 

@@ -185,7 +185,7 @@ def test_expert_data_replaces_the_kept_episodes(toy_run, tmp_path):
   assert rec["expert_success_rate"] == 1.0 and all(ep["success"] for ep in kept)
   for ep, key in zip(kept, phases.exploration_starts(oracle, 1)[:: oracle.explore.tries]):  # round 1's states
     start = observations.policy_obs(exp.env.reset(key).obs)
-    np.testing.assert_allclose(policy_episode(ep)["policy_obs"][0], start, atol=1e-6)
+    np.testing.assert_allclose(policy_episode(ep, exp.policy.lowdim_keys)["policy_obs"][0], start, atol=1e-6)
 
 
 @pytest.mark.parametrize("stop", ["periodic save", "SIGINT", "SIGTERM"])

@@ -40,7 +40,10 @@ def test_variant_presets_set_and_name_their_field():
   assert rundir.round0_key(ablated) != rundir.round0_key(lift_config.get_config("soe"))  # a round 0 of its own
   old = lift_config.get_config("control,range=demonstrations")  # any method, the control too
   assert (old.method, old.policy.action_range, lift_config.get_config("").policy.action_range) == (
-    "control-range_demonstrations", "demonstrations", "workspace")
+    "control-range_demonstrations",
+    "demonstrations",
+    "workspace",
+  )
   # A config saved before the field (read as `demonstrations`) keeps its round 0; the default has its own.
   saved = rundir.plain(old)
   del saved["policy"]["action_range"]

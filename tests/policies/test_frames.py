@@ -51,7 +51,9 @@ def test_relative_and_absolute_invert_each_other_on_random_poses_of_two_arms():
     at_base = at_base.at[:, :, r : r + 6].set(poses.mat_to_rot6d(poses.quat_to_mat(obs[:, -1:, q : q + 4])))
     rel = layout.to_relative(obs, at_base)
     np.testing.assert_allclose(rel[..., a : a + 3], 0.0, atol=1e-6)
-    np.testing.assert_allclose(rel[..., r : r + 6], jnp.broadcast_to(jnp.array([1.0, 0, 0, 0, 1, 0]), rel[..., r : r + 6].shape), atol=1e-6)
+    np.testing.assert_allclose(
+      rel[..., r : r + 6], jnp.broadcast_to(jnp.array([1.0, 0, 0, 0, 1, 0]), rel[..., r : r + 6].shape), atol=1e-6
+    )
     seen = layout.observe(obs)
     np.testing.assert_allclose(seen[:, -1, p : p + 3], 0.0, atol=1e-6)
     np.testing.assert_allclose(seen[:, -1, q : q + 4], jnp.broadcast_to(jnp.array([0.0, 0, 0, 1]), (16, 4)), atol=1e-6)
@@ -64,7 +66,9 @@ def test_pose_helpers_agree_with_the_simulators_rotations():
   np.testing.assert_allclose(m, rotations.quat_wxyz_to_mat(wxyz), atol=1e-6)
   np.testing.assert_allclose(poses.quat_to_mat(wxyz, "wxyz"), m, atol=1e-6)
   np.testing.assert_allclose(poses.quat_to_mat(poses.mat_to_quat(m)), m, atol=1e-5)
-  np.testing.assert_allclose(poses.rot6d_to_mat(poses.mat_to_rot6d(m)), rotations.rot6d_to_mat(rotations.mat_to_rot6d(m)), atol=1e-6)
+  np.testing.assert_allclose(
+    poses.rot6d_to_mat(poses.mat_to_rot6d(m)), rotations.rot6d_to_mat(rotations.mat_to_rot6d(m)), atol=1e-6
+  )
 
 
 def test_a_spec_without_poses_is_refused_for_relative_actions():

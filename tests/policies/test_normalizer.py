@@ -103,7 +103,9 @@ def test_the_workspace_box_maps_to_unit_range_and_the_loss_sees_an_action_beyond
   demos = np.tile(np.r_[0.0, 0.0, 0.9, np.zeros(6), 1.0], (200, 1)).astype(np.float32)
   demos[:, 1] = rng.uniform(-0.01, 0.02, 200)
   norm = normalizer.fit(np.zeros((200, 2)), demos, 0.1, action_box=(lo, hi))
-  corners = np.asarray(norm.normalize_actions(np.stack([np.where(np.isfinite(lo), lo, 0), np.where(np.isfinite(hi), hi, 0)])))
+  corners = np.asarray(
+    norm.normalize_actions(np.stack([np.where(np.isfinite(lo), lo, 0), np.where(np.isfinite(hi), hi, 0)]))
+  )
   np.testing.assert_allclose(corners[:, :3], [[-1] * 3, [1] * 3], atol=1e-6)  # the box is [-1, 1]
   target = np.r_[0.02, 0.05, 0.95, np.zeros(6), -1.0].astype(np.float32)
   assert lo[1] < 0.05 < hi[1]

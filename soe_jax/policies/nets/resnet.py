@@ -113,18 +113,30 @@ class CameraEncoder(nn.Module):
     return jax.nn.relu(nn.Dense(self.feature_dim)(x))
 
 
-def crop(images, size: int, train: bool, key=None):
-  """(..., H, W, C) -> (..., size, size, C): uniform random offsets per image in training, centre otherwise."""
+def crop_shape(size, h: int, w: int) -> tuple[int, int]:
+  """A crop `size` for (h, w) images: an int (a square), (height, width), or a fraction (< 1) of each side."""
+  if isinstance(size, float) and size < 1:
+    return max(1, int(round(size * h))), max(1, int(round(size * w)))
+  ch, cw = (int(size), int(size)) if isinstance(size, (int, float)) else (int(size[0]), int(size[1]))
+  if ch > h or cw > w:
+    raise ValueError(f"a {ch} x {cw} crop of {h} x {w} images")
+  return ch, cw
+
+
+def crop(images, size, train: bool, key=None):
+  """(..., H, W, C) -> (..., ch, cw, C) (`crop_shape(size)`): uniform random offsets per image in
+  training, centre otherwise."""
   h, w = images.shape[-3], images.shape[-2]
+  ch, cw = crop_shape(size, h, w)
   if not train:
-    top, left = (h - size) // 2, (w - size) // 2
-    return images[..., top : top + size, left : left + size, :]
+    top, left = (h - ch) // 2, (w - cw) // 2
+    return images[..., top : top + ch, left : left + cw, :]
   lead = images.shape[:-3]
   flat = images.reshape((-1,) + images.shape[-3:])
   k_top, k_left = jax.random.split(key)
-  tops = jax.random.randint(k_top, (flat.shape[0],), 0, h - size + 1)
-  lefts = jax.random.randint(k_left, (flat.shape[0],), 0, w - size + 1)
-  out = jax.vmap(lambda im, top, left: jax.lax.dynamic_slice(im, (top, left, 0), (size, size, im.shape[-1])))(
+  tops = jax.random.randint(k_top, (flat.shape[0],), 0, h - ch + 1)
+  lefts = jax.random.randint(k_left, (flat.shape[0],), 0, w - cw + 1)
+  out = jax.vmap(lambda im, top, left: jax.lax.dynamic_slice(im, (top, left, 0), (ch, cw, im.shape[-1])))(
     flat, tops, lefts
   )
   return out.reshape(lead + out.shape[1:])
@@ -136,7 +148,7 @@ class ImageEncoder(nn.Module):
   Cameras are encoded in the order of `cameras`, then the low-dim vector, per frame, frames oldest first."""
 
   cameras: Sequence[str] = ("agentview_image", "robot0_eye_in_hand_image")
-  crop_size: int = 76
+  crop_size: int | float | Sequence[int] = 76  # `crop_shape`
   widths: Sequence[int] = RESNET18_WIDTHS
 
   @nn.compact

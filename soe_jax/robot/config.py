@@ -1,0 +1,68 @@
+"""The config of a policy for a robot of one's own, fitted on files: `configs/robot.py` calls `config(arg)`.
+
+Sections: `dataset` (where the demonstrations are and what the spec cannot read from them: the action's
+layout per arm, how each part is normalised, each arm's end-effector pose, an action box), `policy` and
+`fit` (the simulated tasks' own sections, `experiment.sections`), `data` (the training buffer), `refit`
+(what `refit` adds and how it fits). Presets after the colon: `smoke` (tiny, seconds), `cpu` (the
+narrow UNet recipe that converged fastest on a 2-core CPU), `image` (the cameras through robomimic's
+ResNet-18, narrow under `cpu`). Nothing here imports the simulator.
+"""
+
+from __future__ import annotations
+
+import ml_collections
+
+from soe_jax.experiment import sections
+
+PRESETS = ("smoke", "cpu", "image")
+# One arm's 10-d action as the paper's robot and Diffusion Policy have it.
+ARM = (("position", 3), ("rotation_6d", 6), ("gripper", 1))
+
+
+def base_config() -> ml_collections.ConfigDict:
+  c = ml_collections.ConfigDict()
+  c.seed = 0
+  # path: a LeRobotDataset v3.0 directory. observations: the features the policy reads ((): every
+  # `observation.*` feature). image_size: (height, width) the policy's images are resized to when read
+  # ((0, 0): as stored). actions: the action feature's parts per arm, in order. gripper: how the gripper
+  # is normalised (range: a real gripper's opening in metres or counts; identity: already in [-1, 1]).
+  # poses: per arm {"position": key or [key, offset], "orientation": key or [key, offset], "quat_order":
+  # "xyzw" | "wxyz"} (needed by policy.action_frame=chunk_relative). action_box: per arm {"position":
+  # [[lo x, y, z], [hi x, y, z]]} the robot may be commanded in (with policy.action_range=workspace), or ().
+  c.dataset = ml_collections.ConfigDict(
+    dict(path="", observations=(), image_size=(0, 0), actions=(ARM,), gripper="range", poses=(), action_box=())
+  )
+  c.policy = sections.policy()
+  c.policy.action_range = "demonstrations"  # the data's widened range, unless a box is stated
+  c.fit = sections.fit()
+  c.data = ml_collections.ConfigDict(dict(capacity=2048, max_length=2000, image_frames=0))
+  # refit: the episodes a `refit` adds from a dataset of recorded episodes (all_successes: every
+  # episode labelled successful; first_success: the first success per start state, which needs a
+  # `start_state` column), and how it fits: continue from the last round's parameters for `steps` at a
+  # peak lr of `lr` with the EMA carried on or restarted (`ema`), or from scratch for fit.num_steps.
+  c.refit = ml_collections.ConfigDict(dict(select="all_successes", mode="continue", steps=3000, lr=3e-4, ema="carry"))
+  return c
+
+
+def config(arg: str | None = None) -> ml_collections.ConfigDict:
+  """`base_config` with the presets in `arg` ('cpu,image')."""
+  presets = [p.strip() for p in (arg or "").split(",") if p.strip()]
+  unknown = [p for p in presets if p not in PRESETS]
+  if unknown:
+    raise ValueError(f"unknown preset {unknown[0]!r}; known presets: {', '.join(PRESETS)}")
+  c = base_config()
+  if "cpu" in presets:
+    sections.cpu_recipe(c)
+    c.fit.num_steps = 10_000
+  if "smoke" in presets:
+    sections.smoke_recipe(c)
+    c.data.capacity = 64
+    c.refit.steps = 20
+  if "image" in presets:
+    widths = (8, 8, 16, 16) if "smoke" in presets else (16, 32, 64, 128) if "cpu" in presets else (64, 128, 256, 512)
+    # cameras (): every image the spec has; crop_size: a fraction of the image's side when below 1.
+    c.policy.encoder = ml_collections.ConfigDict(
+      dict(name="image", kwargs=dict(cameras=(), crop_size=0.9, widths=widths))
+    )
+    c.data.image_frames = 2_000 if "smoke" in presets else 40_000
+  return c

@@ -1,0 +1,90 @@
+"""A robot's dataset as a policy reads it: the spec from a LeRobotDataset's features and the robot config,
+and the episodes checked against it.
+
+The spec's observations are the dataset's `observation.*` features (or the config's `dataset.observations`),
+low-dimensional vectors as they are, cameras resized to `dataset.image_size` when read; its actions the
+`action` feature laid out as `dataset.actions` says, in the world frame, at the dataset's `fps`; each
+part normalised by range (positions; the gripper under `dataset.gripper = range`) or left as it is.
+"""
+
+from __future__ import annotations
+
+import ml_collections
+import numpy as np
+
+from soe_jax.data import lerobot
+from soe_jax.data.spec import PolicySpec
+from soe_jax.runtime.errors import UserError
+
+IMAGE_DTYPES = ("video", "image")
+
+
+def _plain(x):
+  """ConfigDict / tuples -> plain dicts and lists (for the spec's JSON)."""
+  if isinstance(x, ml_collections.ConfigDict):
+    x = x.to_dict()
+  if isinstance(x, dict):
+    return {k: _plain(v) for k, v in x.items()}
+  if isinstance(x, (list, tuple)):
+    return [_plain(v) for v in x]
+  return x
+
+
+def spec_from_info(info: dict, dataset: ml_collections.ConfigDict, root: str = "the dataset") -> PolicySpec:
+  """The spec of a policy for the dataset whose `meta/info.json` is `info`, under the robot config's
+  `dataset` section (UserError naming what does not fit)."""
+  features = info.get("features", {})
+  keys = list(dataset.observations) or [k for k in features if k.startswith("observation.")]
+  missing = [k for k in keys + ["action"] if k not in features]
+  if missing:
+    raise UserError(f"{root}: no feature {', '.join(missing)}; its features: {', '.join(features)}")
+  size = tuple(int(n) for n in dataset.image_size)
+  observations = {}
+  for key in keys:
+    f = features[key]
+    shape = [int(n) for n in f["shape"]]
+    if f["dtype"] in IMAGE_DTYPES:
+      h, w = (size if size != (0, 0) else shape[:2]) if len(shape) == 3 else (0, 0)
+      if len(shape) != 3 or shape[2] != 3:
+        raise UserError(f"{root}: camera {key!r} has shape {shape}; height x width x 3 expected")
+      observations[key] = dict(shape=[h, w, 3], dtype="uint8", image=True)
+    else:
+      observations[key] = dict(shape=shape, dtype="float32")
+  arms = _plain(dataset.actions)
+  size_a = sum(n for arm in arms for _, n in arm)
+  (a_dim,) = features["action"]["shape"]
+  if size_a != a_dim:
+    raise UserError(f"{root}: the action feature has {a_dim} numbers, dataset.actions lays out {size_a}: {arms}")
+  try:
+    return PolicySpec(
+      observations=observations,
+      actions=arms,
+      action_frame="world",
+      control_hz=float(info["fps"]),
+      action_box=_plain(dataset.action_box) or None,
+      poses=_plain(dataset.poses) or None,
+      action_norm=[{"gripper": dataset.gripper} for _ in arms],
+    )
+  except ValueError as e:
+    raise UserError(f"{root}: {e}") from None
+
+
+def read(root: str, dataset: ml_collections.ConfigDict, episodes=None, progress: bool = False):
+  """(spec, episodes) of the LeRobotDataset at `root`: every episode's observations the spec reads
+  (images resized to its size), actions, timestamps, success label and other columns
+  (`lerobot.read_dataset`). UserError for a dataset that cannot be read or does not fit."""
+  try:
+    info = lerobot.read_info(root)
+    spec = spec_from_info(info, dataset, root)
+    size = spec.image_shape
+    _, found = lerobot.read_dataset(root, list(spec.observations), tuple(size) if size else None, episodes, progress)
+  except lerobot.DatasetError as e:
+    raise UserError(str(e)) from None
+  for ep in found:
+    for key, v in spec.observations.items():
+      got = tuple(np.asarray(ep["obs"][key]).shape[1:])
+      if got != tuple(v["shape"]):
+        raise UserError(
+          f"{root}: episode {ep['episode_index']}: {key} has frames of shape {list(got)}, the spec {v['shape']}"
+        )
+  return spec, found

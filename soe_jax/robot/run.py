@@ -1,0 +1,219 @@
+"""Fit and re-fit a robot's policy on dataset files alone: `fit` (round 0 from the demonstrations) and
+`refit` (the next round, adding the episodes of a recorded dataset labelled successful).
+
+A workdir holds `config.json`, `spec.json`, and per round r `rounds/<r>/ckpt` (what `serve` loads),
+`rounds/<r>/fit.json` (the fit's record: steps, loss curve, episodes by source) and for r >= 1
+`rounds/<r>/data.json` (the recorded dataset and the episodes taken from it). Round r's fit trains on
+the demonstrations and every episode rounds 1..r took, read again from their datasets. Everything is
+checked before anything is written; a fit stopped midway resumes where it was saved (`fit.checkpoint_every`)
+when the same command runs again, to the same parameters; keys are fold_in(seed, round, stream).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+
+import jax
+import jax.numpy as jnp
+import ml_collections
+
+from soe_jax.data import spec as spec_lib
+from soe_jax.data.episodes import EpisodeSet, build_buffer
+from soe_jax.robot import dataset as dataset_lib
+from soe_jax.runtime import atomic, interrupt
+from soe_jax.runtime.errors import UserError
+from soe_jax.train import checkpoint, normalization, train_state
+from soe_jax.train import fit as fit_lib
+
+SELECTIONS = ("all_successes", "first_success")
+REFIT_MODES = ("continue", "scratch")
+_INIT, _FIT = 0, 1  # key streams
+
+
+def _round_dir(workdir: str, r: int) -> str:
+  return os.path.join(workdir, "rounds", str(r))
+
+
+def _fingerprint(root: str) -> str:
+  """What identifies a dataset's content cheaply: its info.json and episode metadata files."""
+  h = hashlib.sha1()
+  for dirpath, _, files in sorted(os.walk(os.path.join(root, "meta"))):
+    for name in sorted(files):
+      with open(os.path.join(dirpath, name), "rb") as f:
+        h.update(name.encode() + f.read())
+  return h.hexdigest()[:12]
+
+
+def _check(config: ml_collections.ConfigDict) -> None:
+  problems = []
+  if not config.dataset.path:
+    problems.append("dataset.path is empty: the LeRobotDataset of the demonstrations")
+  elif not os.path.isdir(config.dataset.path):
+    problems.append(f"dataset.path {config.dataset.path!r} is not a directory")
+  if config.refit.select not in SELECTIONS:
+    problems.append(f"unknown refit.select {config.refit.select!r}; known: {', '.join(SELECTIONS)}")
+  if config.refit.mode not in REFIT_MODES:
+    problems.append(f"unknown refit.mode {config.refit.mode!r}; known: {', '.join(REFIT_MODES)}")
+  if problems:
+    raise UserError("; ".join(problems))
+
+
+def _prepared(config: ml_collections.ConfigDict, progress: bool):
+  """(config with the encoder's cameras filled in, spec, policy, demonstrations), all checked."""
+  _check(config)
+  spec, demos = dataset_lib.read(config.dataset.path, config.dataset, progress=progress)
+  config = ml_collections.ConfigDict(config.to_dict())
+  if config.policy.encoder.name == "image" and not config.policy.encoder.kwargs.cameras:
+    config.policy.encoder.kwargs.cameras = spec.image_keys
+  try:
+    policy = checkpoint.policy_from_spec(config.policy, spec)
+  except ValueError as e:
+    raise UserError(str(e)) from None
+  longest = max(len(ep["actions"]) for ep in demos)
+  if longest > config.data.max_length:
+    raise UserError(
+      f"{config.dataset.path}: an episode of {longest} steps; data.max_length is {config.data.max_length}"
+    )
+  return config, spec, policy, demos
+
+
+def _fit(config, spec, policy, sets, r: int, workdir: str, norm, init_state, progress: bool) -> dict:
+  """Round r's fit on `sets`, saved to rounds/<r>/ckpt with its record -> the record."""
+  rdir = _round_dir(workdir, r)
+  record_path = os.path.join(rdir, "fit.json")
+  if os.path.exists(record_path):
+    return atomic.read_json(record_path)
+  root = jax.random.fold_in(jax.random.key(int(config.seed)), r)
+  if init_state is None or config.refit.mode == "scratch":
+    steps, lr = int(config.fit.num_steps), float(config.fit.lr)
+    params = policy.init(jax.random.fold_in(root, _INIT))
+  else:
+    steps, lr = int(config.refit.steps), float(config.refit.lr or config.fit.lr)
+    params = init_state.params
+  tx = train_state.make_optimizer(config.fit, steps, lr)
+  state = jax.tree.map(jnp.copy, train_state.create(params, tx, norm, ema=config.fit.ema))
+  if init_state is not None and config.refit.mode == "continue" and config.refit.ema == "carry":
+    state = state.replace(ema_params=jax.tree.map(jnp.copy, init_state.ema_params), step=jnp.copy(init_state.step))
+  partial = os.path.join(rdir, "fit_partial")
+  start, history = 0, []
+  if os.path.exists(os.path.join(partial, "progress.json")):
+    saved = atomic.read_json(os.path.join(partial, "progress.json"))
+    state, start, history = checkpoint.load(partial, spec).state, saved["done"], saved["history"]
+  every = max(1, int(config.fit.checkpoint_every) // int(config.fit.chunk_size)) if config.fit.checkpoint_every else 0
+  buf = build_buffer(config, policy, sets)
+  with interrupt.deferred("stopping: saving the fit after the chunk in progress (again to stop now)") as stop:
+
+    def on_chunk(state, done, history):
+      if stop or (every and done < steps and (done // int(config.fit.chunk_size)) % every == 0):
+        checkpoint.save(partial, state, config, spec)
+        atomic.write_json(os.path.join(partial, "progress.json"), dict(done=done, history=history))
+      if stop:
+        raise KeyboardInterrupt
+
+    state, history = fit_lib.fit(policy, tx, state, buf, jax.random.fold_in(root, _FIT), steps, config.fit, progress,
+                                 f"round {r} fit", start, history, on_chunk)  # fmt: skip
+  checkpoint.save(os.path.join(rdir, "ckpt"), state, config, spec)
+  shutil.rmtree(partial, ignore_errors=True)
+  record = dict(
+    round=r,
+    steps=steps,
+    final_loss=history[-1]["loss"],
+    loss_curve=[h["loss"] for h in history],
+    num_episodes=sum(len(s.episodes) for s in sets),
+    episodes_by_source={str(s.source): len(s.episodes) for s in sets},
+  )
+  atomic.write_json(record_path, record)  # last: the round is done
+  return record
+
+
+def fit(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) -> dict:
+  """Round 0 of a robot's policy from the demonstrations at `config.dataset.path` -> its record."""
+  config, spec, policy, demos = _prepared(config, progress)
+  saved = os.path.join(workdir, "config.json")
+  if os.path.exists(saved) and atomic.read_json(saved) != json.loads(config.to_json()):
+    raise UserError(f"{workdir} holds a run of another config ({saved}); use a new --workdir")
+  os.makedirs(workdir, exist_ok=True)
+  spec_lib.save(workdir, spec)
+  atomic.write_json(saved, json.loads(config.to_json()))
+  atomic.write_json(os.path.join(workdir, "dataset.json"), dict(path=os.path.abspath(config.dataset.path),
+                                                                 fingerprint=_fingerprint(config.dataset.path)))  # fmt: skip
+  margin = float(config.policy.normalizer_margin)
+  try:
+    norm = normalization.fit_normalizer(policy, spec, demos, config.policy.action_range, margin)
+  except ValueError as e:
+    raise UserError(str(e)) from None
+  return _fit(config, spec, policy, [EpisodeSet(demos, 0)], 0, workdir, norm, None, progress)
+
+
+def last_round(workdir: str) -> int:
+  """The last round with a finished fit (-1: none)."""
+  r = -1
+  while os.path.exists(os.path.join(_round_dir(workdir, r + 1), "fit.json")):
+    r += 1
+  return r
+
+
+def select(episodes: list[dict], rule: str, root: str) -> list[dict]:
+  """The recorded episodes a re-fit takes: every one labelled successful, or the first success per
+  start state (which needs a `start_state` column)."""
+  unlabelled = [ep["episode_index"] for ep in episodes if ep["success"] is None]
+  if unlabelled:
+    raise UserError(f"{root}: episodes {unlabelled[:5]} have no success label (next.success)")
+  successes = [ep for ep in episodes if ep["success"]]
+  if rule == "all_successes":
+    return successes
+  if any("start_state" not in ep["columns"] for ep in episodes):
+    raise UserError(f"{root}: refit.select=first_success groups tries by start state and needs a `start_state` "
+                    "column; the dataset has none (use all_successes)")  # fmt: skip
+  seen, out = set(), []
+  for ep in successes:
+    state = tuple(map(float, ep["columns"]["start_state"][0].reshape(-1)))
+    if state not in seen:
+      seen.add(state)
+      out.append(ep)
+  return out
+
+
+def refit(workdir: str, recorded: str, progress: bool = True, mode: str | None = None) -> dict:
+  """The next round of the robot run in `workdir`: the episodes of the LeRobotDataset `recorded`
+  labelled successful (`refit.select`) added to the data, re-fitted (`refit.mode`, or `mode`) -> the
+  round's record. Running it again after an interruption continues the same round."""
+  saved = os.path.join(workdir, "config.json")
+  if not os.path.exists(saved):
+    raise UserError(f"{workdir} has no fitted robot policy ({saved} is missing): run `fit` first")
+  config = ml_collections.ConfigDict(atomic.read_json(saved))
+  if mode is not None:
+    config.refit.mode = mode
+  _check(config)
+  spec = spec_lib.load(workdir)
+  last = last_round(workdir)
+  if last < 0:
+    raise UserError(f"{workdir}: round 0 has not finished; run `fit` again to finish it")
+  r = last + 1
+  rdir = _round_dir(workdir, r)
+  data_path = os.path.join(rdir, "data.json")
+  recorded = os.path.abspath(recorded)
+  if os.path.exists(data_path) and atomic.read_json(data_path)["dataset"] != recorded:
+    raise UserError(f"{workdir}: round {r} is under way with {atomic.read_json(data_path)['dataset']}; finish it first")
+  _, demos = dataset_lib.read(config.dataset.path, config.dataset, progress=progress)
+  sets = [EpisodeSet(demos, 0)]
+  for q in range(1, r):
+    taken = atomic.read_json(os.path.join(_round_dir(workdir, q), "data.json"))
+    _, eps = dataset_lib.read(taken["dataset"], config.dataset, taken["episodes"], progress)
+    sets.append(EpisodeSet(eps, q))
+  rec_spec, episodes = dataset_lib.read(recorded, config.dataset, progress=progress)
+  if rec_spec.to_dict() != spec.to_dict():
+    raise UserError(f"{recorded}: its spec differs from the policy's ({os.path.join(workdir, spec_lib.SPEC_FILE)})")
+  taken = select(episodes, config.refit.select, recorded)
+  if not taken:
+    raise UserError(f"{recorded}: none of its {len(episodes)} episodes is labelled successful; nothing to add")
+  loaded = checkpoint.load(os.path.join(_round_dir(workdir, last), "ckpt"))
+  os.makedirs(rdir, exist_ok=True)
+  atomic.write_json(data_path, dict(dataset=recorded, fingerprint=_fingerprint(recorded), select=config.refit.select,
+                                    recorded=len(episodes), episodes=[ep["episode_index"] for ep in taken]))  # fmt: skip
+  sets.append(EpisodeSet(taken, r))
+  norm = loaded.state.normalizer  # the statistics stay those of the demonstrations
+  return _fit(config, spec, loaded.policy, sets, r, workdir, norm, loaded.state, progress)
