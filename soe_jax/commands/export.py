@@ -1,6 +1,6 @@
 """A run's data as robomimic HDF5, Diffusion Policy zarr or RLDS.
 
-  python -m soe_jax export --workdir=DIR [--round=R] --format=robomimic|zarr|rlds --out=PATH
+  python -m soe_jax export --workdir=DIR [--round=R] --format=robomimic|zarr|rlds|lerobot --out=PATH
 
 Exports the data the fit of round R (default: the run's last) trained on, as the loop gathers it:
 the demonstrations, the episodes each round up to R kept, and the steered episodes the fit took, each
@@ -18,12 +18,17 @@ from soe_jax.runtime import cli
 FLAGS = cli.Flags()
 FLAGS.string("workdir", None, "The run directory whose data is exported.")
 FLAGS.integer("round", None, "The round whose fit's data is exported (default: the run's last).", lower_bound=0)
-FLAGS.enum("format", None, list(export.FORMATS), "robomimic (HDF5), zarr (Diffusion Policy's replay buffer) or rlds.")
+FLAGS.enum(
+  "format",
+  None,
+  list(export.FORMATS),
+  "robomimic (HDF5), zarr (Diffusion Policy's replay buffer), rlds or lerobot (LeRobotDataset v3.0).",
+)
 FLAGS.string("out", None, "Where the file (robomimic) or the directory (zarr, rlds) goes.")
 
 
 def _run(argv: list[str]) -> None:
-  cli.positional(argv, "0", "python -m soe_jax export --workdir=DIR --format=robomimic|zarr|rlds --out=PATH")
+  cli.positional(argv, "0", "python -m soe_jax export --workdir=DIR --format=robomimic|zarr|rlds|lerobot --out=PATH")
   sets, meta = RunDir.open(FLAGS.workdir).fit_sets(FLAGS.round)
   export.write(FLAGS.out, FLAGS.format, sets, meta)
   counts = ", ".join(f"{export.group_name(s)}: {len(s.episodes)}" for s in sets)

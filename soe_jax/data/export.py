@@ -7,9 +7,15 @@
 - `zarr`: Diffusion Policy's replay buffer (`soe_jax/data/zarr_store.py`), each episode's group in
   `meta/episode_source` and `meta/episode_steered`;
 - `rlds`: an RLDS dataset through tensorflow-datasets (`soe_jax/data/rlds.py`), each episode's group in
-  its `episode_metadata`.
-`load(path)` reads either back as the same groups of episodes (`EpisodeSet`s), so a buffer built
-from them holds the same windows.
+  its `episode_metadata`;
+- `lerobot`: a LeRobotDataset v3.0 (`soe_jax/data/lerobot.py`) at the control rate, every observation
+  `observation.<key>` (cameras as videos), `next.success` from each episode's success, and per frame
+  the episode's group (`source`, `steered`), the simulator state (`simulator_state`, float64) and the
+  episode's start state (`start_state`, so `refit.select=first_success` can group tries), as a robot's
+  recorder would write it; the provenance in `meta/soe_jax.json`. (No next observations: LeRobot
+  keeps none.)
+`load(path)` reads any back as the same groups of episodes (`EpisodeSet`s), so a buffer built
+from them holds the same windows (a LeRobotDataset's images within its video's PSNR).
 """
 
 from __future__ import annotations
@@ -19,13 +25,18 @@ import re
 
 import h5py
 import ml_collections
+import numpy as np
 
-from soe_jax.data import hdf5, rlds, zarr_store
+from soe_jax.data import hdf5, lerobot, rlds, zarr_store
 from soe_jax.data.episodes import EpisodeSet, draw_images
 from soe_jax.envs import registry as env_registry
+from soe_jax.runtime import atomic
 from soe_jax.runtime.errors import UserError
 
-FORMATS = ("robomimic", "zarr", "rlds")
+FORMATS = ("robomimic", "zarr", "rlds", "lerobot")
+PREFIX = "observation."  # a LeRobotDataset's observation features
+CONTROL_HZ = 20  # the simulated tasks' control rate (envs.controller.CONTROL_DT)
+PROVENANCE = "soe_jax.json"  # beside LeRobot's own metadata
 
 
 def group_name(s: EpisodeSet) -> str:
@@ -67,6 +78,39 @@ def read_robomimic(path: str) -> tuple[list[EpisodeSet], dict]:
   return sets, _meta(env_args)
 
 
+def write_lerobot(path: str, sets: list[EpisodeSet], meta: dict) -> None:
+  episodes = []
+  for s in sets:
+    for ep in s.episodes:
+      t = len(ep["actions"])
+      columns = {"source": np.full(t, s.source, np.int64), "steered": np.full(t, s.steered, bool)}
+      if "states" in ep:
+        columns["simulator_state"] = np.asarray(ep["states"], np.float64)
+        columns["start_state"] = np.repeat(columns["simulator_state"][:1], t, axis=0)
+      obs = {PREFIX + k: np.asarray(v) for k, v in ep["obs"].items()}
+      episodes.append(dict(obs=obs, actions=ep["actions"], success=bool(ep.get("success", True)), columns=columns))
+  lerobot.write_dataset(path, episodes, CONTROL_HZ, robot_type=f"soe_jax {meta.get('env_name', '')}".strip())
+  atomic.write_json(os.path.join(path, "meta", PROVENANCE), meta)
+
+
+def read_lerobot(path: str) -> tuple[list[EpisodeSet], dict]:
+  """A LeRobotDataset -> its groups (by the `source` and `steered` columns where it has them, else one
+  group of demonstrations), observations under their keys without `observation.`."""
+  info, found = lerobot.read_dataset(path)
+  groups = {}
+  for ep in found:
+    c = ep["columns"]
+    key = (int(c["source"][0]), bool(c["steered"][0])) if "source" in c else (0, False)
+    obs = {k[len(PREFIX) :] if k.startswith(PREFIX) else k: v for k, v in ep["obs"].items()}
+    out = dict(obs=obs, actions=ep["actions"], success=bool(ep["success"]))
+    if "simulator_state" in c:
+      out["states"] = c["simulator_state"]
+    groups.setdefault(key, []).append(out)
+  provenance = os.path.join(path, "meta", PROVENANCE)
+  meta = atomic.read_json(provenance) if os.path.exists(provenance) else {"lerobot_info": info}
+  return [EpisodeSet(eps, src, steered) for (src, steered), eps in groups.items()], meta  # (in the written order)
+
+
 def write(out: str, fmt: str, sets: list[EpisodeSet], meta: dict) -> None:
   """Write the groups `sets` with `meta` (`env_name`, `env_kwargs`, provenance) to `out` in format
   `fmt`; an image task's episodes get robomimic's image keys, drawn from their states."""
@@ -75,7 +119,8 @@ def write(out: str, fmt: str, sets: list[EpisodeSet], meta: dict) -> None:
   if fmt == "robomimic" and meta["env_kwargs"].get("obs_mode") == "image":
     env = env_registry.env_from_config(ml_collections.ConfigDict(dict(meta["env_kwargs"], backend="mujoco")))
     draw_images(env, [ep for s in sets for ep in s.episodes], env.image_keys)
-  {"robomimic": write_robomimic, "zarr": zarr_store.write, "rlds": rlds.write}[fmt](out, sets, meta)
+  writers = {"robomimic": write_robomimic, "zarr": zarr_store.write, "rlds": rlds.write, "lerobot": write_lerobot}
+  writers[fmt](out, sets, meta)
 
 
 def load(path: str) -> tuple[list[EpisodeSet], dict]:
@@ -83,6 +128,8 @@ def load(path: str) -> tuple[list[EpisodeSet], dict]:
   group or an HDF5 file)."""
   if os.path.isdir(os.path.join(path, rlds.NAME)):
     return rlds.read(path)
+  if os.path.exists(os.path.join(path, "meta", "info.json")):
+    return read_lerobot(path)
   if os.path.isdir(path):
     return zarr_store.read(path)
   if not os.path.exists(path):

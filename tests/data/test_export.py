@@ -12,7 +12,7 @@ import pytest
 
 from soe_jax.commands import export as export_command
 from soe_jax.commands import inspect as inspect_command
-from soe_jax.data import export, hdf5, inspect
+from soe_jax.data import export, hdf5, inspect, lerobot
 from soe_jax.data.episodes import build_buffer
 from soe_jax.envs import observations
 from soe_jax.experiment.rundir import RunDir
@@ -59,12 +59,18 @@ def test_an_export_reads_back_as_the_same_groups_and_buffer(run_with_data, tmp_p
     for k in ("actions", "states"):
       assert a[k].dtype == b[k].dtype
       np.testing.assert_array_equal(a[k], b[k])
-    for group in ("obs", "next_obs"):
+    for group in ("obs",) if fmt == "lerobot" else ("obs", "next_obs"):  # (LeRobot keeps no next observations)
       chex.assert_trees_all_equal(a[group], b[group])
     assert a.get("success", True) == b.get("success", True)
   chex.assert_trees_all_equal(_buffer(config, sets), _buffer(config, back))
   described = inspect.describe(out)
   assert ("filter key steered_0: 1 episodes" if fmt == "robomimic" else "steered_0: 1 episodes") in described
+  if fmt == "lerobot":  # a robot's recorder's layout: success labels and each try's start state
+    info, episodes = lerobot.read_dataset(out)
+    assert info["fps"] == 20 and [ep["success"] for ep in episodes] == [
+      ep.get("success", True) for s in sets for ep in s.episodes
+    ]
+    np.testing.assert_array_equal(episodes[0]["columns"]["start_state"][-1], sets[0].episodes[0]["states"][0])
   assert '"round": 2' in described and "states: (" in described and "float64" in described
 
 
