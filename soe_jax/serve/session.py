@@ -93,10 +93,11 @@ class Session:
     """The reply to one observation (see the module's docstring); RequestError for a bad request,
     PolicyError for a chunk that must not be sent."""
     x = policy_input(self.spec, obs)
-    start = obs.get("episode_start", False)
+    scalar = lambda v: v.item() if isinstance(v, np.ndarray) and v.shape == () else v  # openpi packs 0-d arrays so
+    start = scalar(obs.get("episode_start", False))
     if not isinstance(start, (bool, np.bool_)):
       raise RequestError(f"episode_start must be true or false, got {start!r}")
-    stamp = obs.get("timestamp", time.time())
+    stamp = scalar(obs.get("timestamp", time.time()))
     if not isinstance(stamp, (int, float, np.number)) or not np.isfinite(stamp):
       raise RequestError(f"timestamp must be a number of seconds, got {stamp!r}")
     if start or self.history is None:

@@ -60,7 +60,8 @@ def test_replies_are_chunk_first_and_equal_the_in_process_chunk(served):
     observations = [rng.normal(size=7).astype(np.float32) for _ in range(3)]
     replies = []
     for i, o in enumerate(observations):
-      ws.send(wire.packb({"state": o, "episode_start": i == 0, "timestamp": 100.0 + i}))
+      start = np.array(i == 0) if i == 1 else i == 0  # (openpi-client packs 0-d arrays as arrays)
+      ws.send(wire.packb({"state": o, "episode_start": start, "timestamp": np.array(100.0 + i)}))
       replies.append(wire.unpackb(ws.recv()))
   ta = agent.policy.n_action_steps
   history = agent_lib.initial_history(observations[0][None], agent.policy.n_obs_steps)
