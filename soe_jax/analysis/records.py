@@ -9,6 +9,7 @@ command that wrote it sets it (`record.write_record`), and `TABLES` maps a kind 
 - `round0`: a run's round-0 fit and evaluation (`fit`, `evaluate` with the per-state outcomes), each row
   paired with the first on the same evaluation start states;
 - `memory`: a run's peak memory, measured by `/usr/bin/time -v`;
+- `serve`: `python -m soe_jax bench serve`, the policy server's latency per chunk, a row per record;
 - `action_range`: `python -m soe_jax action_range`, round 0 on the workspace box against the
   demonstrations' range per distance outside the latter (`action_range.table`).
 """
@@ -245,6 +246,24 @@ TABLES.register("latent", latent_table)
 TABLES.register("kept", lambda records: kept.table([run for _, r in records for run in r["runs"]]))
 TABLES.register("round0", round0_table)
 TABLES.register("memory", memory_table)
+
+
+def serve_table(records: Records) -> str:
+  """`bench serve` records: the policy, compile time, in-process and round-trip latency (p50 / p95),
+  the wire's overhead, the machine."""
+  rows = []
+  for name, r in records:
+    s = r["serve"]
+    ms = lambda d: f"{d['p50']:.1f} / {d['p95']:.1f} ms"
+    policy = f"{s['task']} {s['obs_encoder']} {s['down_dims']}" + (f", images {s['images']}" if s["images"] else "")
+    rows.append([name, policy, s["requests"], f"{s['compile_s']:.1f} s", ms(s["in_process_ms"]), ms(s["round_trip_ms"]),
+                 f"{s['wire_overhead_ms']:.1f} ms", f"{s['request_bytes']:,} B", r["machine"]])  # fmt: skip
+  header = ["record", "policy", "requests", "compile", "in-process p50 / p95", "round trip p50 / p95",
+            "wire overhead (p50)", "request", "machine"]  # fmt: skip
+  return markdown(header, rows)
+
+
+TABLES.register("serve", serve_table)
 TABLES.register("action_range", lambda records: action_range.table([s for _, r in records for s in r["seeds"]]))
 
 

@@ -10,8 +10,9 @@
   python -m soe_jax bench sample --config=configs/square.py --batch=1 --steps=10
   python -m soe_jax bench rollout --config=configs/lift.py:cpu --strategy=soe --num_envs=100
   python -m soe_jax bench torch --down_dims=256,512,1024 --step_embed_dim=256 --batch=256
+  python -m soe_jax bench serve --config=configs/lift.py:cpu [--requests=200] [--out=results/serve/<name>.json]
 
-Each benchmark has flags of its own; `--out` (env, mjx, encoder) also writes the result as a record
+Each benchmark has flags of its own; `--out` (env, mjx, encoder, serve) also writes the result as a record
 for `results/`, with the command, the commit and the machine.
 """
 
@@ -24,6 +25,7 @@ from collections.abc import Callable
 
 from soe_jax.analysis import record
 from soe_jax.bench import encoder, env, mjx, policy, rollout, torch_reference
+from soe_jax.bench import serve as serve_bench
 from soe_jax.envs import backends, observations
 from soe_jax.envs import registry as env_registry
 from soe_jax.experts import registry as expert_registry
@@ -164,6 +166,22 @@ def _torch(f: cli.Flags, argv: list[str]) -> dict:
   return torch_reference.run(dims, f.step_embed_dim, f.batch, f.threads, f.steps)
 
 
+# -- serve -------------------------------------------------------------------------------------------
+def _serve_flags(f: cli.Flags) -> None:
+  f.config_flag()
+  f.integer("requests", 200, "Timed requests.", lower_bound=1)
+  f.integer("warmup", 20, "Requests before the timed ones.", lower_bound=0)
+  f.string("out", None, "Also write the result as a record (for results/) here.")
+
+
+def _serve(f: cli.Flags, argv: list[str]) -> dict:
+  source = provenance.header(argv)  # the code as it was when the measurement started
+  result = serve_bench.serve(f.config, f.requests, f.warmup)
+  if f.out:
+    record.write_record(dict(source, serve=result), f.out, "serve")
+  return result
+
+
 BENCHMARKS = {
   "env": Benchmark(
     "environment throughput: control steps per second summed over a batch",
@@ -231,6 +249,16 @@ CPUs; needs `pip install torch` (not a dependency).
   python -m soe_jax bench torch --down_dims=256,512,1024 --step_embed_dim=256 --batch=256""",
     _torch_flags,
     _torch,
+  ),
+  "serve": Benchmark(
+    "the policy server's latency per chunk over loopback against in-process",
+    """The policy server's latency per chunk (`soe_jax/bench/serve.py`): p50 / p95 over --requests
+requests after --warmup, over loopback and in-process, compile apart.
+
+  python -m soe_jax bench serve --config=configs/lift.py:cpu [--out=results/serve/<name>.json]""",
+    _serve_flags,
+    _serve,
+    config=True,
   ),
 }
 

@@ -81,3 +81,14 @@ def test_a_command_is_named_as_it_was_typed():
   assert provenance.command(["python -m soe_jax bench mjx", "--task=can"]) == "python -m soe_jax bench mjx --task=can"
   assert provenance.command(["/src/soe_jax/main.py", "--config=x"]) == "python -m soe_jax.main --config=x"
   assert provenance.command(["launch/gpu_physics.py", "--budget=5"]) == "python launch/gpu_physics.py --budget=5"
+
+
+def test_bench_serve_times_the_server_against_in_process_and_tables_its_record(tmp_path, capsys):
+  from soe_jax.analysis import results
+
+  out = str(tmp_path / "serve" / "smoke.json")
+  bench.main(["python -m soe_jax bench", "serve", "--config=configs/lift.py:smoke", "--requests=5", "--warmup=2",
+              f"--out={out}"])  # fmt: skip
+  result = json.loads(capsys.readouterr().out.splitlines()[-1])
+  assert result["requests"] == 5 and result["round_trip_ms"]["p50"] > 0 and result["in_process_ms"]["p50"] > 0
+  assert "| smoke | lift lowdim [16, 32, 64] | 5 |" in results.table(str(tmp_path / "serve"))
