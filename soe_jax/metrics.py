@@ -77,9 +77,10 @@ def relative_improvement(before: float, after: float) -> dict:
   return dict(absolute=after - before, relative=None if before == 0 else (after - before) / before)
 
 
-def rollout_summary(out: dict, tries: int, normalizer=None) -> dict:
+def rollout_summary(out: dict, tries: int, normalizer=None, control_hz: float = 1 / CONTROL_DT) -> dict:
   """A rollout phase's numbers from `rollout.rollout`'s output, with `tries` adjacent tries per start
-  state: success rate and Wilson interval, jerk, mean length, (k > 1) Pass@k and rollouts, and with
+  state: success rate and Wilson interval, jerk (at `control_hz`, the spec's: jerk at 10 Hz is not
+  jerk at 20 Hz), mean length, (k > 1) Pass@k and rollouts, and with
   the policy's `normalizer` the fraction of its observation features outside [-1, 1] over the frames
   it acted on (`obs_out_of_range`)."""
   sr = success_rate(out["success"])
@@ -88,7 +89,7 @@ def rollout_summary(out: dict, tries: int, normalizer=None) -> dict:
     num_rollouts=sr["num_episodes"],
     wilson_low=sr["wilson_low"],
     wilson_high=sr["wilson_high"],
-    jerk=average_jerk(out["eef_pos"], out["length"] + 1),
+    jerk=average_jerk(out["eef_pos"], out["length"] + 1, 1.0 / control_hz),
     mean_length=float(out["length"].mean()),
   )
   if normalizer is not None:

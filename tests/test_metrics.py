@@ -54,6 +54,13 @@ def test_jerk_is_zero_for_a_quadratic_and_exact_for_a_cubic():
   )
   # Two arms: each arm's jerk, averaged over the arms.
   np.testing.assert_allclose(metrics.episode_jerk(np.stack([cubic, quad], 1)), np.sqrt(180.0) / 2, rtol=1e-6)
+  # At the spec's control rate: the same cubic sampled at 10 Hz is the same physical jerk.
+  t10 = np.arange(40) * 0.1
+  out = dict(
+    success=np.ones(1, bool), eef_pos=np.stack([2 * t10**3, -(t10**3), t10**2], -1)[None], length=np.array([39])
+  )
+  np.testing.assert_allclose(metrics.rollout_summary(out, 1, control_hz=10.0)["jerk"], np.sqrt(180.0), rtol=1e-6)
+  assert metrics.rollout_summary(out, 1)["jerk"] == pytest.approx(8 * np.sqrt(180.0))  # read at 20 Hz: 8x too high
 
 
 def test_relative_improvement_keeps_the_absolute_difference():

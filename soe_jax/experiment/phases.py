@@ -95,7 +95,10 @@ class Experiment:
     keys = evaluation_starts(self.config, num_states)
     key = self.key(0, _EVALUATE) if key is None else key
     out = self.rollout(state, strategy_registry.make_strategy("dp"), keys, key, f"round {r} evaluate", progress)
-    rec = dict(metrics.rollout_summary(out, 1, state.normalizer), success=out["success"].astype(int).tolist())
+    rec = dict(
+      metrics.rollout_summary(out, 1, state.normalizer, self.spec.control_hz),
+      success=out["success"].astype(int).tolist(),
+    )
     return rec, out
 
   def shown(self, out: dict) -> list[dict]:
@@ -120,7 +123,7 @@ class Experiment:
       out["success"].reshape(shape), out["length"].reshape(shape), self.config.rounds.select, max_length
     ).reshape(-1)
     rec = dict(
-      metrics.rollout_summary(out, tries, state.normalizer),
+      metrics.rollout_summary(out, tries, state.normalizer, self.spec.control_hz),
       strategy=c.strategy.name,
       num_episodes=int(keep.sum()),
       kept_length_mean=float(out["length"][keep].mean()) if keep.any() else None,
