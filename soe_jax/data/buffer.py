@@ -10,6 +10,11 @@ from -(To - 1); indices outside the episode repeat its first or last frame. Wind
 uniformly over all windows of all valid episodes. A sample holds the first To observations and all T
 actions of its window.
 
+A re-fit may sample otherwise (`Sampling`): a fixed share of each batch from the demonstrations
+(`demo_fraction`, the rest from the other episodes), and self-collected episodes' windows only where
+they start at a recorded decision (`aligned`: the window's executed part, actions To-1 .. To-1+Ta-1,
+is then one chunk as the policy sampled it, never two spliced; decisions every Ta steps from 0).
+
 An image policy's buffer also holds every stored frame's camera images, uint8 and unpadded: episode i's
 frames are `images[key][first_frame[i] : first_frame[i] + length[i]]` of a store of `image_frames`
 frames (padding 2,048 episodes x 400 steps of two 84 x 84 cameras would take 35 GB); its windows'
@@ -17,6 +22,8 @@ observations are then {"lowdim": (B, To, D), "images": {key: (B, To, H, W, 3) ui
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import jax
 import jax.numpy as jnp
@@ -120,19 +127,34 @@ def add(buffer: EpisodeBuffer, obs, actions, length, keep, source, steered=None)
   )
 
 
-def num_windows(buffer: EpisodeBuffer, horizon: int, n_obs_steps: int, n_action_steps: int) -> jax.Array:
-  """(N,) windows per episode (0 for empty slots, at least 1 for a stored episode)."""
+@dataclasses.dataclass(frozen=True)
+class Sampling:
+  """How a fit draws windows (`rounds.demo_fraction`, `rounds.aligned_windows`); the default is
+  Diffusion Policy's uniform draw over every window."""
+
+  demo_fraction: float = 0.0  # > 0: round(demo_fraction * B) of each batch from source-0 episodes
+  aligned: bool = False  # self-collected episodes' windows start at decisions only
+
+
+UNIFORM = Sampling()
+
+
+def num_windows(
+  buffer: EpisodeBuffer, horizon: int, n_obs_steps: int, n_action_steps: int, aligned: bool = False
+) -> jax.Array:
+  """(N,) windows per episode (0 for empty slots, at least 1 for a stored episode); `aligned`: a
+  self-collected episode's only those starting at a decision."""
   w = buffer.length - horizon + n_obs_steps + n_action_steps - 1
+  if aligned:
+    at_decisions = (buffer.length - horizon + n_action_steps + n_obs_steps - 2) // n_action_steps + 1
+    w = jnp.where(buffer.source != 0, at_decisions, w)
   return jnp.where(buffer.valid, jnp.maximum(w, 1), 0)
 
 
-def windows(buffer: EpisodeBuffer, u, horizon: int, n_obs_steps: int, n_action_steps: int) -> dict:
-  """Windows number `u` (B,) of the buffer's `num_windows` in order (episode by episode) -> {"obs":
-  (B, To, D) (with images: {"lowdim", "images"}), "actions": (B, T, A)}, raw (not normalised)."""
-  counts = num_windows(buffer, horizon, n_obs_steps, n_action_steps)
-  cum = jnp.cumsum(counts)
-  ep = jnp.searchsorted(cum, u, side="right")
-  start = u - (cum[ep] - counts[ep]) - (n_obs_steps - 1)
+def _window(buffer, ep, j, horizon: int, n_obs_steps: int, n_action_steps: int, aligned: bool) -> dict:
+  """Episode `ep`'s window number `j` (B,) each."""
+  step = jnp.where(aligned & (buffer.source[ep] != 0), n_action_steps, 1) if aligned else 1
+  start = j * step - (n_obs_steps - 1)
   idx = jnp.clip(start[:, None] + jnp.arange(horizon), 0, buffer.length[ep][:, None] - 1)
   obs = buffer.obs[ep[:, None], idx[:, :n_obs_steps]]
   if buffer.images is not None:
@@ -142,10 +164,46 @@ def windows(buffer: EpisodeBuffer, u, horizon: int, n_obs_steps: int, n_action_s
   return {"obs": obs, "actions": actions}
 
 
-def sample_windows(
-  buffer: EpisodeBuffer, key, batch_size: int, horizon: int, n_obs_steps: int, n_action_steps: int
+def _locate(counts, u):
+  """Window numbers `u` over `counts` (N,) -> (episode, number within it)."""
+  cum = jnp.cumsum(counts)
+  ep = jnp.searchsorted(cum, u, side="right")
+  return ep, u - (cum[ep] - counts[ep])
+
+
+def windows(
+  buffer: EpisodeBuffer, u, horizon: int, n_obs_steps: int, n_action_steps: int, aligned: bool = False
 ) -> dict:
-  """`batch_size` windows drawn uniformly from all of them (`windows`)."""
-  total = jnp.sum(num_windows(buffer, horizon, n_obs_steps, n_action_steps))
-  u = jax.random.randint(key, (batch_size,), 0, total)
-  return windows(buffer, u, horizon, n_obs_steps, n_action_steps)
+  """Windows number `u` (B,) of the buffer's `num_windows` in order (episode by episode) -> {"obs":
+  (B, To, D) (with images: {"lowdim", "images"}), "actions": (B, T, A)}, raw (not normalised)."""
+  counts = num_windows(buffer, horizon, n_obs_steps, n_action_steps, aligned)
+  ep, j = _locate(counts, u)
+  return _window(buffer, ep, j, horizon, n_obs_steps, n_action_steps, aligned)
+
+
+def sample_windows(
+  buffer: EpisodeBuffer,
+  key,
+  batch_size: int,
+  horizon: int,
+  n_obs_steps: int,
+  n_action_steps: int,
+  sampling: Sampling = UNIFORM,
+) -> dict:
+  """`batch_size` windows drawn uniformly from all of them (`windows`), or as `sampling` says: the
+  first round(demo_fraction * B) from the demonstrations' windows, the others from the other
+  episodes' (from the demonstrations' too while there are none)."""
+  counts = num_windows(buffer, horizon, n_obs_steps, n_action_steps, sampling.aligned)
+  if sampling.demo_fraction <= 0:
+    u = jax.random.randint(key, (batch_size,), 0, jnp.sum(counts))
+    return _window(buffer, *_locate(counts, u), horizon, n_obs_steps, n_action_steps, sampling.aligned)
+  n_demo = int(round(sampling.demo_fraction * batch_size))
+  demo = jnp.where(buffer.source == 0, counts, 0)
+  other = counts - demo
+  other = jnp.where(jnp.sum(other) > 0, other, demo)
+  key_demo, key_other = jax.random.split(key)
+  u_demo = jax.random.randint(key_demo, (n_demo,), 0, jnp.sum(demo))
+  u_other = jax.random.randint(key_other, (batch_size - n_demo,), 0, jnp.sum(other))
+  (ep_d, j_d), (ep_o, j_o) = _locate(demo, u_demo), _locate(other, u_other)
+  ep, j = jnp.concatenate([ep_d, ep_o]), jnp.concatenate([j_d, j_o])
+  return _window(buffer, ep, j, horizon, n_obs_steps, n_action_steps, sampling.aligned)

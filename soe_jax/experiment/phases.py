@@ -13,6 +13,7 @@ import ml_collections
 import numpy as np
 
 from soe_jax import metrics
+from soe_jax.data import buffer as buffer_lib
 from soe_jax.data.episodes import EpisodeSet, build_buffer
 from soe_jax.experiment import action_box, runlog, task, video
 from soe_jax.experiment import select as select_lib
@@ -193,8 +194,14 @@ class Experiment:
         if stop:
           raise KeyboardInterrupt
 
+      # Re-fits draw their batches as the round's settings say (round 0 holds demonstrations alone).
+      sampling = (
+        buffer_lib.Sampling(float(c.rounds.demo_fraction), bool(c.rounds.aligned_windows))
+        if r
+        else buffer_lib.UNIFORM
+      )
       state, history = fit_lib.fit(self.policy, tx, state, buf, key, steps, c.fit, self.progress, f"round {r} fit",
-                                   start, history, on_chunk)  # fmt: skip
+                                   start, history, on_chunk, sampling)  # fmt: skip
     info = dict(steps=steps, final_loss=history[-1]["loss"], loss_curve=[h["loss"] for h in history])
     info["time_steps_s"] = round(sum(h.get("chunk_s", 0.0) for h in history), 2)  # without in-fit evaluations
     if eval_every:

@@ -117,6 +117,9 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   # demonstrator's episodes from the start states of those (expert: an oracle), or nothing (none: the
   # control, which explores not at all).
   # round0_dir: where the shared round 0 lives ("" = <workdir>/../round0).
+  # demo_fraction: > 0, each re-fit batch draws that share from the demonstrations and the rest from the
+  # other episodes (0: uniformly over every window). aligned_windows: self-collected episodes' windows
+  # start at recorded decisions only, so no window's executed part splices two sampled chunks.
   # Logging beside metrics.jsonl and TensorBoard (never part of the experiment: a run resumes with other
   # settings here): wandb mirrors each phase's numbers, with the config and the commit, to the project
   # `wandb_project` (WANDB_MODE=offline keeps it on disk, in <workdir>/wandb). videos: each evaluation and
@@ -124,7 +127,8 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   c.log = ml_collections.ConfigDict(dict(wandb=False, wandb_project="soe_jax", videos=4))
   c.rounds = ml_collections.ConfigDict(
     dict(num_rounds=3, select="first_success", length_cap=0.0, refit="continue", refit_steps=10_000, refit_lr=0.0,
-         refit_ema="restart", steered="successful", new_data="kept", round0_dir="")
+         refit_ema="restart", steered="successful", new_data="kept", round0_dir="", demo_fraction=0.0,
+         aligned_windows=False)
   )  # fmt: skip
   return c
 
@@ -176,6 +180,12 @@ def apply_presets(
     section = functools.reduce(getattr, sections, c)
     if name not in section:
       raise ValueError(f"{preset}: strategy {c.explore.strategy.name!r} has no setting {name!r}")
+    if isinstance(section[name], bool):  # (bool("false") is True)
+      if value.lower() not in ("true", "false"):
+        raise ValueError(f"{preset}={value}: expected true or false")
+      section[name] = value.lower() == "true"
+      c.method = f"{c.method}-{suffix}" if section[name] else c.method
+      continue
     try:
       section[name] = type(section[name])(value)
     except ValueError:

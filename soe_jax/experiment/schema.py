@@ -13,7 +13,8 @@ LOGGING = "log."
 NOT_SETTINGS = ("seed", "rounds.round0_dir")
 # What a method's run and its control may differ in: the arm itself (how it explores, what it keeps).
 # (The action range changes round 0 too; its arms pair with the control of the default range.)
-ARM = ("method", "explore.", "rounds.new_data", "rounds.select", "rounds.length_cap", "policy.action_range")
+ARM = ("method", "explore.", "rounds.new_data", "rounds.select", "rounds.length_cap", "policy.action_range",
+       "rounds.demo_fraction", "rounds.aligned_windows")  # fmt: skip
 
 # Sections that do not change round 0 (so methods differing only there share it), and fields that
 # change neither its parameters nor its numbers (the fit's in-fit evaluations).
@@ -42,6 +43,8 @@ ADDED = {
   "data.image_frames": 0,
   "policy.action_range": "demonstrations",
   "policy.action_frame": "absolute",
+  "rounds.demo_fraction": 0.0,
+  "rounds.aligned_windows": False,
 }
 # Fields a run may resume with other values in: how it is logged and watched, and MJX's batch cap.
 NOT_COMPARED = (LOGGING, "env.mjx_max_batch")
@@ -93,6 +96,8 @@ VARIANTS = {
   "alpha": ("explore.strategy.kwargs.alpha", "alpha"),
   "hold": ("explore.strategy.kwargs.hold", "hold"),
   "beta": ("policy.bypass.beta", "beta"),  # the KL ablation (round 0 too: its own, as the bypass trains there)
+  "demo_fraction": ("rounds.demo_fraction", "demos"),  # the re-fit's share of demonstration windows
+  "aligned": ("rounds.aligned_windows", "aligned"),  # re-fit windows at decisions only
   "range": ("policy.action_range", "range_"),  # (round 0 too; any method, the control too)
 }
 # Variants that go with any method, the control too (the others change how a method explores).

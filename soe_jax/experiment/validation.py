@@ -72,6 +72,8 @@ def problems(config: ml_collections.ConfigDict) -> list[str]:
     out.append(f"unknown rounds.steered {config.rounds.steered!r}; known: {', '.join(schema.STEERED)}")
   out += [f"{f} must be at least 1, got {_get(config, f)}" for f in schema.POSITIVE if _get(config, f) < 1]
   out += [f"{f} must be >= 0, got {_get(config, f)}" for f in schema.NON_NEGATIVE if _get(config, f) < 0]
+  if not 0 <= config.rounds.demo_fraction < 1:
+    out.append(f"rounds.demo_fraction must be in [0, 1), got {config.rounds.demo_fraction}")
   if not 0 < config.policy.bypass.batch_fraction <= 1:
     out.append(f"policy.bypass.batch_fraction must be in (0, 1], got {config.policy.bypass.batch_fraction}")
   if config.fit.lr <= 0:

@@ -44,13 +44,19 @@ def training_batch(norm, raw: dict, frame=None) -> dict:
   return {"obs": norm.normalize_obs(raw["obs"]), "actions": norm.normalize_actions(raw["actions"])}
 
 
-def make_train_step(policy: Policy, tx: optax.GradientTransformation, batch_size: int, mesh):
+def make_train_step(
+  policy: Policy,
+  tx: optax.GradientTransformation,
+  batch_size: int,
+  mesh,
+  sampling: buffer_lib.Sampling = buffer_lib.UNIFORM,
+):
   data = sharding.batch_sharded(mesh)
 
   def train_step(state: train_state.TrainState, buf: buffer_lib.EpisodeBuffer, key):
     key_batch, key_loss = jax.random.split(key)
     raw = buffer_lib.sample_windows(
-      buf, key_batch, batch_size, policy.horizon, policy.n_obs_steps, policy.n_action_steps
+      buf, key_batch, batch_size, policy.horizon, policy.n_obs_steps, policy.n_action_steps, sampling
     )
     norm = state.normalizer
     raw = in_frame(raw, policy.frame)
@@ -71,8 +77,8 @@ def make_train_step(policy: Policy, tx: optax.GradientTransformation, batch_size
 
 
 @functools.lru_cache(maxsize=16)
-def _chunk_fn(policy: Policy, tx, batch_size: int, length: int, mesh):
-  train_step = make_train_step(policy, tx, batch_size, mesh)
+def _chunk_fn(policy: Policy, tx, batch_size: int, length: int, mesh, sampling: buffer_lib.Sampling):
+  train_step = make_train_step(policy, tx, batch_size, mesh, sampling)
 
   @functools.partial(jax.jit, donate_argnums=0)
   def chunk(state, buf, key):
@@ -98,12 +104,14 @@ def fit(
   start: int = 0,
   history: list[dict] | None = None,
   on_chunk=None,
+  sampling: buffer_lib.Sampling = buffer_lib.UNIFORM,
 ):
   """Run SGD steps `start`..`num_steps` -> (state, per-chunk metrics list: the chunk's mean metrics,
   `step` after it, `chunk_s` its wall time with any compiling). `config`: batch_size,
   chunk_size. The batches depend only on `key` and the step, so a fit resumed from the state and
   history saved after step `start` ends as an uninterrupted one does; `on_chunk(state, done,
-  history)` is called after every chunk (to save such a point).
+  history)` is called after every chunk (to save such a point). `sampling`: how batches are drawn
+  (`buffer.Sampling`; Diffusion Policy's uniform draw by default).
 
   Raises NonFiniteLossError between chunks if the loss is not finite."""
   mesh = sharding.data_mesh()
@@ -117,7 +125,7 @@ def fit(
   while done < num_steps:
     length = min(config.chunk_size, num_steps - done)
     t = time.perf_counter()
-    chunk = _chunk_fn(policy, tx, int(config.batch_size), int(length), mesh)
+    chunk = _chunk_fn(policy, tx, int(config.batch_size), int(length), mesh, sampling)
     new_state, metrics = chunk(state, buf, jax.random.fold_in(key, done))
     metrics = {k: float(v) for k, v in jax.device_get(metrics).items()}
     if not all(np.isfinite(v) for v in metrics.values()):

@@ -21,7 +21,7 @@ def test_method_presets_choose_the_strategy():
     lift_config.get_config("soe,dp")
   with pytest.raises(
     ValueError,
-    match="known presets: smoke, cpu, head, image, expert_data, select, length_cap, alpha, hold, beta, range, dp, sime,",
+    match="known presets: smoke, cpu, head, image, expert_data, select, length_cap, alpha, hold, beta, demo_fraction, aligned, range, dp,",
   ):
     lift_config.get_config("fast")
   with pytest.raises(ValueError, match="expert_data goes with an exploring method"):
@@ -38,6 +38,10 @@ def test_variant_presets_set_and_name_their_field():
   ablated = lift_config.get_config("soe,beta=0")
   assert (ablated.method, ablated.policy.bypass.beta) == ("soe-beta0", 0.0)
   assert rundir.round0_key(ablated) != rundir.round0_key(lift_config.get_config("soe"))  # a round 0 of its own
+  mixed = lift_config.get_config("dp,demo_fraction=0.5,aligned=true")  # the re-fit's sampling: an arm's settings
+  assert (mixed.method, mixed.rounds.demo_fraction, mixed.rounds.aligned_windows) == ("dp-demos0.5-aligned", 0.5, True)
+  assert lift_config.get_config("dp,aligned=false").method == "dp"
+  assert rundir.round0_key(mixed) == rundir.round0_key(lift_config.get_config("dp"))  # round 0 shared
   old = lift_config.get_config("control,range=demonstrations")  # any method, the control too
   assert (old.method, old.policy.action_range, lift_config.get_config("").policy.action_range) == (
     "control-range_demonstrations",
@@ -54,6 +58,7 @@ def test_variant_presets_set_and_name_their_field():
     ("soe,alpha", "needs a value: alpha=VALUE"),
     ("dp,hold=2", "strategy 'dp' has no setting 'hold'"),
     ("soe,hold=two", "hold=two: expected a int, e.g. hold=1"),
+    ("soe,aligned=1", "aligned=1: expected true or false"),
   ]:
     with pytest.raises(ValueError, match=message):
       lift_config.get_config(presets)

@@ -91,3 +91,46 @@ def test_images_beyond_the_frame_store_are_refused():
   buf = buffer.add(buf, obs, actions, length, jnp.ones(2, bool), 0)
   with pytest.raises(ValueError, match="29 frames of images do not fit in data.image_frames=25; raise it"):
     buffer.with_images(buf, _frame_images([20, 9]), image_frames=25)
+
+
+def _demos_and_own(lengths_demo=(30, 40), lengths_own=(25, 37, 50)):
+  """Two demonstrations and three self-collected episodes (round 1), obs = the step index, actions =
+  the step index in dim 0 and the episode's number in dim 1."""
+  buf = buffer.create(8, 50, 1, 2)
+  for source, lengths in ((0, lengths_demo), (1, lengths_own)):
+    n = len(lengths)
+    t = np.broadcast_to(np.arange(50, dtype=np.float32), (n, 50))
+    first = int(buf.count)
+    ep = np.broadcast_to(np.arange(first, first + n, dtype=np.float32)[:, None], (n, 50))
+    buf = buffer.add(buf, t[..., None], np.stack([t, ep], -1), np.array(lengths), np.ones(n, bool), source)
+  return buf
+
+
+def test_demo_fraction_draws_that_share_of_each_batch_from_the_demonstrations():
+  buf = _demos_and_own()
+  sampling = buffer.Sampling(demo_fraction=0.5)
+  out = jax.jit(lambda k: buffer.sample_windows(buf, k, 10_000, 16, 2, 8, sampling))(jax.random.key(0))
+  episode = np.asarray(out["actions"][:, 0, 1])
+  share = np.mean(episode < 2)  # episodes 0 and 1 are the demonstrations
+  assert abs(share - 0.5) <= 0.02, share
+  assert set(np.unique(episode)) == {0, 1, 2, 3, 4}
+  uniform = np.asarray(buffer.sample_windows(buf, jax.random.key(0), 10_000, 16, 2, 8)["actions"][:, 0, 1])
+  assert abs(np.mean(uniform < 2) - (23 + 33) / (23 + 33 + 18 + 30 + 43)) < 0.02  # by window count otherwise
+
+
+def test_aligned_windows_start_self_collected_windows_at_decisions_only():
+  """Every window of a self-collected episode has its executed part (actions To-1 .. To-1+Ta-1) start at
+  a decision (a multiple of Ta) and none is missed; demonstrations keep every start."""
+  to, ta, h = 2, 8, 16
+  buf = _demos_and_own()
+  counts = np.asarray(buffer.num_windows(buf, h, to, ta, aligned=True))
+  total = int(counts.sum())
+  out = buffer.windows(buf, np.arange(total), h, to, ta, aligned=True)
+  episode = np.asarray(out["actions"][:, 0, 1]).astype(int)
+  executed_start = np.asarray(out["actions"][:, to - 1, 0]).astype(int)
+  for e, length in zip(range(2, 5), (25, 37, 50)):
+    starts = executed_start[episode == e]
+    assert np.all(starts % ta == 0), starts
+    assert sorted(starts) == list(range(0, length - h + ta + to - 1, ta))  # every decision a full window reaches
+  plain = np.asarray(buffer.num_windows(buf, h, to, ta))
+  np.testing.assert_array_equal(counts[:2], plain[:2])  # demonstrations: every start
