@@ -31,3 +31,27 @@ def test_a_synthetic_robot_fits_serves_and_refits_without_the_simulator(tmp_path
 @pytest.mark.slow
 def test_the_same_with_a_96_by_128_camera(tmp_path):
   _check(_run(tmp_path, "--image"))
+
+
+def test_bad_robot_inputs_are_one_line_and_write_nothing(tmp_path):
+  """A dataset missing a key the config names, an action layout that does not fit, a missing dataset:
+  one `error:` line, exit status 2, no workdir written."""
+  import numpy as np
+
+  from soe_jax.data import lerobot
+  from tests.robot import synthetic
+
+  data = str(tmp_path / "demos")
+  lerobot.write_dataset(data, synthetic.episodes(np.random.default_rng(0), 2, 12, False), fps=10)
+  base = [sys.executable, "-m", "soe_jax", "fit", "--config=configs/robot.py:smoke", f"--workdir={tmp_path / 'run'}"]
+  for extra, message in [
+    ([f"--config.dataset.path={data}", "--config.dataset.observations=('observation.wrist',)"],
+     "no feature observation.wrist; its features:"),
+    ([f"--config.dataset.path={data}", "--config.dataset.actions=((('position', 3), ('gripper', 1)),)"],
+     "the action feature has 10 numbers, dataset.actions lays out 4"),
+    ([f"--config.dataset.path={tmp_path / 'nowhere'}"], "is not a directory"),
+  ]:  # fmt: skip
+    done = subprocess.run(base + extra, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 2 and done.stderr.startswith("error: ") and message in done.stderr, done.stderr
+    assert done.stderr.count("\n") == 1, done.stderr
+  assert not (tmp_path / "run").exists()
