@@ -10,6 +10,7 @@ command that wrote it sets it (`record.write_record`), and `TABLES` maps a kind 
   paired with the first on the same evaluation start states;
 - `memory`: a run's peak memory, measured by `/usr/bin/time -v`;
 - `serve`: `python -m soe_jax bench serve`, the policy server's latency per chunk, a row per record;
+- `fidelity`: `python -m soe_jax fidelity`, the exploration path against the base path (`fidelity.table`);
 - `action_range`: `python -m soe_jax action_range`, round 0 on the workspace box against the
   demonstrations' range per distance outside the latter (`action_range.table`).
 """
@@ -21,7 +22,7 @@ from collections.abc import Callable
 import numpy as np
 
 from soe_jax import metrics
-from soe_jax.analysis import action_range, kept
+from soe_jax.analysis import action_range, fidelity, kept
 from soe_jax.analysis.tables import markdown, pct, rate
 from soe_jax.experiment import rundir, runlog
 from soe_jax.registry import Registry
@@ -264,6 +265,7 @@ def serve_table(records: Records) -> str:
 
 
 TABLES.register("serve", serve_table)
+TABLES.register("fidelity", lambda records: fidelity.table([run for _, r in records for run in r["runs"]]))
 TABLES.register("action_range", lambda records: action_range.table([s for _, r in records for s in r["seeds"]]))
 
 

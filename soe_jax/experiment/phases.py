@@ -196,13 +196,13 @@ class Experiment:
 
       # Re-fits draw their batches as the round's settings say (round 0 holds demonstrations alone).
       sampling = (
-        buffer_lib.Sampling(float(c.rounds.demo_fraction), bool(c.rounds.aligned_windows))
-        if r
-        else buffer_lib.UNIFORM
+        buffer_lib.Sampling(float(c.rounds.demo_fraction), bool(c.rounds.aligned_windows)) if r else buffer_lib.UNIFORM
       )
       state, history = fit_lib.fit(self.policy, tx, state, buf, key, steps, c.fit, self.progress, f"round {r} fit",
                                    start, history, on_chunk, sampling)  # fmt: skip
     info = dict(steps=steps, final_loss=history[-1]["loss"], loss_curve=[h["loss"] for h in history])
+    # The last chunk's mean of each loss term (the bypass's KL and IB head loss among them).
+    info["final_metrics"] = {k: history[-1][k] for k in FINAL_METRICS if k in history[-1]}
     info["time_steps_s"] = round(sum(h.get("chunk_s", 0.0) for h in history), 2)  # without in-fit evaluations
     if eval_every:
       info["eval_curve"] = eval_curve(history)
@@ -280,6 +280,9 @@ class Experiment:
       video.render_round(self.dir, self.env, r, redraw=False)
     except (RenderError, OSError) as e:
       print(f"warning: round {r}'s videos were not drawn: {e}", flush=True)
+
+
+FINAL_METRICS = ("loss_il", "loss_ib", "loss_ib_head", "kl", "latent_std")
 
 
 def eval_curve(history: list[dict]) -> list[dict]:

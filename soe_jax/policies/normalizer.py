@@ -39,6 +39,10 @@ class Normalizer:
       return {"lowdim": self.normalize_obs(obs["lowdim"]), "images": images}
     return obs * self.obs_scale + self.obs_offset
 
+  def unnormalize_obs(self, obs):
+    """Normalised low-dim observations (..., D) -> raw."""
+    return (obs - self.obs_offset) / self.obs_scale
+
   def normalize_actions(self, actions):
     return jnp.clip(actions * self.act_scale + self.act_offset, -1.0, 1.0)
 
