@@ -18,6 +18,7 @@ COMMANDS = {
   "kept": "what the kept episodes of runs look like (lengths, spread, states), as a record",
   "action_range": "round 0 on the workspace box against the demonstrations' range, by distance outside it",
   "fidelity": "how faithful the exploration path is to the base path at the decisions runs recorded",
+  "relabel": "a run's explored states with another path's actions, re-fitted as a new arm",
   "video": "a run's stored episodes drawn to MP4",
   "steer": "steer a run's policy by hand in a local web page",
   "fit": "a robot's policy fitted on a LeRobotDataset alone (round 0, no simulator)",
