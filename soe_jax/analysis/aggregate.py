@@ -68,6 +68,17 @@ def _outcomes(workdir: str) -> dict:
     return json.load(f)
 
 
+def _check_base_path(control: dict, run: dict, control0, run0) -> None:
+  """A run that differs from its control in a field that refits round 0 but keeps its base path
+  (`schema.SAME_BASE_PATH`) must have evaluated round 0 as the control did, state by state."""
+  differs = [k for k in schema.SAME_BASE_PATH if control["settings"].get(k) != run["settings"].get(k)]
+  if differs and control0 != run0:
+    raise UserError(
+      f"{run['workdir']} differs from its control {control['workdir']} in {', '.join(differs)}, which keeps the base "
+      "path, but their round-0 evaluations differ: they are not paired"
+    )
+
+
 def _comparison(pairs: list[tuple]) -> dict | None:
   """`metrics.pooled_comparison` of [(reference, method)] per seed (None if there are none)."""
   pairs = [(a, b) for a, b in pairs if a is not None and b is not None]
@@ -150,6 +161,7 @@ def rows(workdirs: list[str]) -> list[dict]:
       for r in after:
         control = controls.get(_control_key(task, r["seed"], r["settings"]))
         if control is not None:
+          _check_base_path(control, r, evaluated(control, "0"), evaluated(r, "0"))
           pairs.append((evaluated(control, r["last"]), evaluated(r, r["last"])))
       vs_control = _comparison(pairs)
     out.append(

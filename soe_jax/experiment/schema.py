@@ -14,7 +14,11 @@ NOT_SETTINGS = ("seed", "rounds.round0_dir")
 # What a method's run and its control may differ in: the arm itself (how it explores, what it keeps).
 # (The action range changes round 0 too; its arms pair with the control of the default range.)
 ARM = ("method", "explore.", "rounds.new_data", "rounds.select", "rounds.length_cap", "policy.action_range",
-       "rounds.demo_fraction", "rounds.aligned_windows")  # fmt: skip
+       "rounds.demo_fraction", "rounds.aligned_windows", "policy.bypass.beta")  # fmt: skip
+# Arm fields that refit round 0 but leave its base path as it is (the bypass's loss never reaches the
+# encoder or the head): an arm differing from its control there pairs with it only where their round-0
+# evaluations agree state by state.
+SAME_BASE_PATH = ("policy.bypass.beta",)
 
 # Sections that do not change round 0 (so methods differing only there share it), and fields that
 # change neither its parameters nor its numbers (the fit's in-fit evaluations).

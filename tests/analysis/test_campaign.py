@@ -184,3 +184,17 @@ def test_the_papers_claims_are_tested_on_the_paired_runs(tmp_path):
   assert "SOE / DP 0.99x (p = 0.8" in jerk
   md = results.table(str(tmp_path))
   assert "- lift: SOE needs the fewest rollouts: reproduced" in md
+
+
+def test_a_kl_arm_pairs_with_the_control_only_where_its_base_path_is_the_controls(tmp_path):
+  """beta refits round 0 but not its base path: the arm pairs with the control of the other beta when
+  their round-0 evaluations agree state by state, and is refused when they do not."""
+  base = [1, 0, 0, 1]
+  _fake_run(tmp_path / "s0" / "control", "control", 0, base, [1, 0, 0, 0])
+  _fake_run(tmp_path / "s0" / "soe-beta0", "soe,beta=0", 0, base, [1, 1, 0, 1])
+  row = {r["method"]: r for r in aggregate.rows(aggregate.find_runs(str(tmp_path)))}["soe-beta0"]
+  assert (row["comparisons"]["control"]["gained"], row["comparisons"]["control"]["lost"]) == (2, 0)
+  _fake_run(tmp_path / "s1" / "control", "control", 1, base, [1, 0, 0, 0])
+  _fake_run(tmp_path / "s1" / "soe-beta0", "soe,beta=0", 1, [0, 0, 0, 1], [1, 1, 0, 1])
+  with pytest.raises(UserError, match="keeps the base path, but their round-0 evaluations differ"):
+    aggregate.rows(aggregate.find_runs(str(tmp_path)))
