@@ -41,3 +41,16 @@ def test_the_identity_relabelling_reproduces_the_round_and_base_labels_change_on
     changed |= not np.allclose(a["actions"], b["actions"])
   assert changed  # the labels do not
   assert os.path.exists(base.phase_path(1, "explore")) and not os.path.exists(base.phase_path(1, "fit"))
+
+
+def test_the_relabel_command_exports_beside_a_campaigns_runs(toy_run, tmp_path):
+  from soe_jax.commands import relabel as command
+
+  _, _, workdir = toy_run
+  results = tmp_path / "results"
+  command.main(["python -m soe_jax relabel", workdir, "--labels=recorded", f"--workdir={tmp_path / 'id'}",
+                f"--results={results}", "--progress=false"])  # fmt: skip
+  exported = results / "toy" / "seed0" / "soe-relabel_recorded"
+  assert {"command.json", "config.json", "metrics.jsonl", "outcomes.json", "report.md"} <= set(os.listdir(exported))
+  assert json.load(open(exported / "command.json"))["source_run"] == os.path.abspath(workdir)
+  assert (results / "comparison.md").exists()
