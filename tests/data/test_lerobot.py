@@ -19,9 +19,9 @@ from PIL import Image
 
 from soe_jax.data import lerobot
 from soe_jax.data.lerobot import DatasetError
+from tests import venvs
 
 FIXTURES = os.path.join(os.path.dirname(__file__), "fixtures")
-VENVS = os.environ.get("SOE_JAX_VENVS", "/work/venvs")
 SIDE, WRIST, STATE = "observation.images.side", "observation.images.wrist", "observation.state"
 
 
@@ -359,30 +359,11 @@ def test_refuses_to_overwrite(tmp_path):
 # ------------------------------------------------------------------------------ LeRobot's own tools, own venvs
 
 
-def _venv(name: str, packages: list[str], probe: str, env: dict | None = None) -> str:
-  """The python of a virtual environment under VENVS with `packages`, made once; pytest.skip where pip cannot."""
-  python = os.path.join(VENVS, name, "bin", "python")
-  if os.path.exists(python) and subprocess.run([python, "-c", probe], capture_output=True).returncode == 0:
-    return python
-  try:
-    subprocess.run(["python3", "-m", "venv", os.path.join(VENVS, name)], check=True, capture_output=True)
-    r = subprocess.run(
-      [python, "-m", "pip", "install", "-q", *packages], capture_output=True, text=True, timeout=3000, env=env
-    )
-  except (OSError, subprocess.SubprocessError) as e:
-    pytest.skip(f"cannot make the virtual environment {name}: {e}")
-  if r.returncode or subprocess.run([python, "-c", probe], capture_output=True).returncode:
-    pytest.skip(
-      f"pip cannot install {packages} into {VENVS}/{name}: {r.stderr.strip().splitlines()[-1:] or r.returncode}"
-    )
-  return python
-
-
 @pytest.mark.slow
 def test_lerobot_doctor_finds_no_fail(tmp_path):
   """lerobot-doctor (PyPI) checks a dataset write_dataset wrote: `lerobot-doctor check ROOT --ci` prints its report
   as JSON and exits 1 on any FAIL."""
-  python = _venv("lerobot-doctor", ["lerobot-doctor"], "import lerobot_doctor.cli")
+  python = venvs.python("lerobot-doctor", ["lerobot-doctor"], "import lerobot_doctor.cli")
   root = str(tmp_path / "ds")
   lerobot.write_dataset(root, _episodes(lengths=(30, 40, 35), size=(96, 128)), fps=10, video_keys=[SIDE], task="pick")
   r = subprocess.run([python, "-c", "from lerobot_doctor.cli import main; main()", "check", root, "--ci"],
@@ -399,7 +380,7 @@ def test_reads_what_lerobot_writes_now(tmp_path):
   (make_lerobot_fixture.py); read_dataset reads it. The CPU-only torch of a local wheel folder has no torchvision
   build, so pip is pointed at PyPI alone (CUDA wheels, which import and run on a CPU)."""
   env = {k: v for k, v in os.environ.items() if k != "PIP_FIND_LINKS"}
-  python = _venv("lerobot-dataset", ["lerobot-dataset", "torch", "torchvision", "setuptools<81"],
+  python = venvs.python("lerobot-dataset", ["lerobot-dataset", "torch", "torchvision", "setuptools<81"],
                  "import torch, torchvision.transforms; import ledataset.datasets.lerobot_dataset",
                  env={**env, "PIP_CONFIG_FILE": os.devnull})  # fmt: skip
   out = str(tmp_path / "tiny")

@@ -13,7 +13,6 @@ np.bool_, `timestamp` as np.float64), other keys as they are (a `prompt` string,
 """
 
 import json
-import os
 import subprocess
 
 import numpy as np
@@ -23,9 +22,9 @@ from soe_jax.data.spec import PolicySpec
 from soe_jax.policies import agent as agent_lib
 from soe_jax.serve import session
 from soe_jax.serve.server import PolicyServer
+from tests import venvs
 from tests.serve.test_policy_server import SPEC, _agent
 
-VENVS = os.environ.get("SOE_JAX_VENVS", "/work/venvs")
 VERSION = "0.1.2"
 PACKAGES = [f"openpi-client=={VERSION}", "typing_extensions"]
 PROBE = (
@@ -65,26 +64,9 @@ print(json.dumps(dict(metadata=metadata, steps=steps, refused=refused)))
 """
 
 
-def _venv(name: str, packages: list[str], probe: str) -> str:
-  """The python of a virtual environment under VENVS with `packages`, made once; pytest.skip where pip cannot."""
-  python = os.path.join(VENVS, name, "bin", "python")
-  if os.path.exists(python) and subprocess.run([python, "-c", probe], capture_output=True).returncode == 0:
-    return python
-  try:
-    subprocess.run(["python3", "-m", "venv", os.path.join(VENVS, name)], check=True, capture_output=True)
-    r = subprocess.run([python, "-m", "pip", "install", "-q", *packages], capture_output=True, text=True, timeout=1200)
-  except (OSError, subprocess.SubprocessError) as e:
-    pytest.skip(f"cannot make the virtual environment {name}: {e}")
-  if r.returncode or subprocess.run([python, "-c", probe], capture_output=True).returncode:
-    pytest.skip(
-      f"pip cannot install {packages} into {VENVS}/{name}: {r.stderr.strip().splitlines()[-1:] or r.returncode}"
-    )
-  return python
-
-
 @pytest.mark.slow
 def test_openpi_client_gets_the_in_process_chunks_step_by_step():
-  python = _venv("openpi-client", PACKAGES, PROBE)
+  python = venvs.python("openpi-client", PACKAGES, PROBE)
   spec = PolicySpec.from_dict(SPEC)
   agent = _agent(spec)
   to, ta = agent.policy.n_obs_steps, agent.policy.n_action_steps
