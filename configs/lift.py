@@ -11,7 +11,10 @@ from 10 succeeds almost everywhere (97.5% of 400 start states) and leaves nothin
 3 demonstrations and a 12.5k-step round-0 fit (499 s of fit here; rounds keep the preset's 3k-step
 re-fit) round 0 converges: 66.0% of 400 evaluation start states [61.2%, 70.5%] (seed 0), and 6.25k
 more steps on the same data change that by +2.8 points [-0.4, +5.9] (BENCHMARKS.md, "Convergence of
-round 0"; results/convergence/11_lift_cpu_3demos_12k5.json).
+round 0"; results/convergence/11_lift_cpu_3demos_12k5.json). Those figures were measured with the
+actions normalised over the demonstrations' range (`policy.action_range=demonstrations`, then the only
+rule); on the task's workspace box (`WORKSPACE` in soe_jax/envs/lift.py, the default now) round 0
+succeeds on 65.0% of the 200 evaluation states of seed 0 (RESULTS.md, "The action range").
 
 Benchmarks:
   python -m soe_jax bench fit --config=configs/lift.py:cpu
@@ -23,8 +26,8 @@ from soe_jax.experiment import presets
 
 def get_config(arg=None):
   # Under `cpu,image`: robomimic's 10 demonstrations and a 6k-step fit (47 min of steps here), 87.0% of
-  # 100 evaluation states (BENCHMARKS.md, "An image policy on this CPU"; results/image/); 3 were not tried
-  # on images.
+  # 100 evaluation states with the object vector among the inputs (BENCHMARKS.md, "An image policy on this
+  # CPU"; results/image/); without it (the default now) and with 3 demonstrations, not measured.
   return presets.apply_presets(
     presets.base_config("lift", num_demos=10),
     arg,

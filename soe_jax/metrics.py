@@ -93,8 +93,9 @@ def rollout_summary(out: dict, tries: int, normalizer=None, control_hz: float = 
     mean_length=float(out["length"].mean()),
   )
   if normalizer is not None:
-    acted = np.arange(out["obs"].shape[1]) < np.asarray(out["length"])[:, None]
-    rec["obs_out_of_range"] = float(normalizer.out_of_range_fraction(out["obs"], acted))
+    seen = out.get("policy_obs", out["obs"])  # what the policy read (its keys), else every policy key
+    acted = np.arange(seen.shape[1]) < np.asarray(out["length"])[:, None]
+    rec["obs_out_of_range"] = float(normalizer.out_of_range_fraction(seen, acted))
   if tries > 1:
     s = out["success"].reshape(-1, tries)
     r = rollouts(s)

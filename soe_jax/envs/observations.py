@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from soe_jax.envs import rotations
 
@@ -100,12 +101,15 @@ def policy_obs(obs: dict, xp=jnp) -> jax.Array:
   return xp.concatenate([xp.asarray(obs[k], xp.float32) for k in keys], axis=-1)
 
 
-def policy_input(obs: dict, image_keys: tuple[str, ...] = ()):
-  """What a policy reads of the observations: the low-dim vector (`policy_obs`), or for a policy of
-  camera images (`image_keys`, e.g. `manipulation.IMAGE_KEYS`) {"lowdim": that vector, "images": {key:
-  (..., H, W, 3) uint8}}, the form an image policy's observation histories, buffer windows and
-  normaliser take."""
-  vector = policy_obs(obs)
+def policy_input(obs: dict, image_keys: tuple[str, ...] = (), lowdim_keys: tuple[str, ...] = ()):
+  """What a policy reads of the observations: the low-dim vector (`policy_obs`, or the keys
+  `lowdim_keys` in order: a policy's, which may leave out the object vector), or for a policy of camera
+  images (`image_keys`, e.g. `manipulation.IMAGE_KEYS`) {"lowdim": that vector, "images": {key: (..., H,
+  W, 3) uint8}}, the form an image policy's observation histories, buffer windows and normaliser take."""
+  if lowdim_keys:
+    vector = jnp.concatenate([jnp.asarray(obs[k], jnp.float32) for k in lowdim_keys], axis=-1)
+  else:
+    vector = policy_obs(obs)
   if not image_keys:
     return vector
   missing = [k for k in image_keys if k not in obs]
@@ -114,3 +118,11 @@ def policy_input(obs: dict, image_keys: tuple[str, ...] = ()):
       f"the policy reads images {', '.join(missing)}, which these observations lack (obs_mode='image' draws them)"
     )
   return {"lowdim": vector, "images": {k: obs[k] for k in image_keys}}
+
+
+def select_keys(vector, object_dim: int, num_robots: int, keys: tuple[str, ...]):
+  """The parts of a per-dimension vector over the full policy observation (`policy_obs`'s layout, e.g.
+  a task's span floors) that the keys `keys` take, in their order."""
+  sizes = policy_obs_sizes(object_dim, num_robots)
+  starts = dict(zip(sizes, np.cumsum([0] + list(sizes.values()))))
+  return np.concatenate([np.asarray(vector)[starts[k] : starts[k] + sizes[k]] for k in keys])

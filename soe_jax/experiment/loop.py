@@ -28,6 +28,7 @@ import ml_collections
 
 from soe_jax.data import hdf5
 from soe_jax.data.episodes import EpisodeSet, build_buffer
+from soe_jax.envs import observations
 from soe_jax.experiment import rundir, runlog, validation
 from soe_jax.experiment.phases import Experiment
 from soe_jax.experiment.rundir import RunDir
@@ -60,9 +61,10 @@ def round0(exp: Experiment) -> tuple:
       dict(env_name=exp.env.name, env_kwargs=exp.env.config.to_dict(), source="demonstrations"),
     )
   demos = run.demonstrations()
-  c = exp.config
+  c, env = exp.config, exp.env
+  floors = observations.select_keys(env.obs_min_span, env.object_dim, env.num_robots, exp.policy.lowdim_keys)
   norm = normalization.fit_normalizer(exp.policy, exp.spec, demos, c.policy.action_range,
-                                      float(c.policy.normalizer_margin), exp.env.obs_min_span)  # fmt: skip
+                                      float(c.policy.normalizer_margin), floors)  # fmt: skip
   state = exp.fit_phase(0, [EpisodeSet(demos, 0)], norm)
   exp.evaluate_phase(0, state)
   exp.videos(0)

@@ -31,7 +31,8 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
   arm fits a round 0 of its own);
 - `head=NAME` (diffusion_unet, flow_unet, mlp);
 - `image`: the paper's simulation observations, the agent-view and in-hand cameras' 84 x 84 images
-  beside the low-dim vector (`env.obs_mode`), encoded by robomimic's ResNet-18 per camera with random
+  beside the robot's own low-dim state, without the simulator's object vector (`env.obs_mode`,
+  `env.object_vector`), encoded by robomimic's ResNet-18 per camera with random
   76 x 76 crops in training (`policy.encoder`), the images stored unpadded (`data.image_frames`
   frames), SIME's image-task noise scale 0.5; with `cpu` the trunk's widths are 16/32/64/128 (its fit
   step ~6x faster here than ResNet-18's 64/128/256/512, which accelerators keep) and round 0 fits for
@@ -87,6 +88,9 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
       action_mode="absolute",
       episode_length=400,
       obs_mode="low_dim",  # low_dim | image (the cameras' images beside the low-dim vector)
+      # Whether the policy reads the simulator's object vector (poses of the objects): a low-dim policy
+      # must; an image policy sees the objects in its cameras, as a real robot's does (the paper's).
+      object_vector=True,
       image_size=84,
       renderer="auto",  # auto (warp on a CUDA GPU with warp-lang) | gl | warp: what draws the cameras
     )
@@ -218,6 +222,7 @@ def apply_presets(
   if presets.get("image"):
     widths = SMOKE_IMAGE_WIDTHS if presets.get("smoke") else CPU_IMAGE_WIDTHS if presets.get("cpu") else RESNET18_WIDTHS
     c.env.obs_mode = "image"
+    c.env.object_vector = False  # the paper's: images and proprioception
     cameras = env_registry.image_keys(c.env.task)
     c.policy.encoder = ml_collections.ConfigDict(
       dict(name="image", kwargs=dict(cameras=cameras, crop_size=76, widths=widths))

@@ -49,6 +49,7 @@ ADDED = {
   "policy.action_frame": "absolute",
   "rounds.demo_fraction": 0.0,
   "rounds.aligned_windows": False,
+  "env.object_vector": True,
 }
 # Fields a run may resume with other values in: how it is logged and watched, and MJX's batch cap.
 NOT_COMPARED = (LOGGING, "env.mjx_max_batch")

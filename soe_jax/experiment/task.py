@@ -33,7 +33,10 @@ def spec(config: ml_collections.ConfigDict) -> PolicySpec:
   if encoder.name == "image":
     cameras = tuple(policy_registry.make_encoder(encoder.name, **encoder.get("kwargs", {})).cameras)
   size = int(config.env.get("image_size", 84))
-  return PolicySpec.from_dict(env_registry.task_spec(config.env.task, config.env.action_mode, cameras, size))
+  spec = env_registry.task_spec(config.env.task, config.env.action_mode, cameras, size)
+  if not config.env.get("object_vector", True):
+    del spec["observations"]["object"]  # (an image policy sees the objects in its cameras)
+  return PolicySpec.from_dict(spec)
 
 
 @functools.lru_cache(maxsize=8)

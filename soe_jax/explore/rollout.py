@@ -69,6 +69,7 @@ def decisions_fn(env: ManipulationEnv, strategy: Strategy, n_action_steps: int, 
       active = ~c.done
       record = dict(
         obs=observations.policy_obs(c.state.obs),
+        policy_obs=agent_lib.lowdim_latest(c.obs_history),
         action=action,
         next_obs=observations.policy_obs(nxt.obs),
         eef=observations.eef_positions(nxt.obs),
@@ -78,7 +79,9 @@ def decisions_fn(env: ManipulationEnv, strategy: Strategy, n_action_steps: int, 
       succeeded = active & (nxt.metrics["success"] > 0)
       c = RolloutCarry(
         state=nxt,
-        obs_history=agent_lib.push_history(c.obs_history, observations.policy_input(nxt.obs, agent.policy.image_keys)),
+        obs_history=agent_lib.push_history(
+          c.obs_history, observations.policy_input(nxt.obs, agent.policy.image_keys, agent.policy.lowdim_keys)
+        ),
         done=c.done | succeeded | (c.t + 1 >= episode_length),
         success=c.success | succeeded,
         length=c.length + active.astype(jnp.int32),
@@ -102,12 +105,14 @@ def decisions_fn(env: ManipulationEnv, strategy: Strategy, n_action_steps: int, 
   return run
 
 
-def initial_carry(env, n_obs_steps: int, reset_keys, image_keys: tuple[str, ...] = ()) -> RolloutCarry:
+def initial_carry(
+  env, n_obs_steps: int, reset_keys, image_keys: tuple[str, ...] = (), lowdim_keys: tuple[str, ...] = ()
+) -> RolloutCarry:
   state = jax.jit(jax.vmap(env.reset))(reset_keys)
   no = jnp.zeros(reset_keys.shape[0], bool)
   return RolloutCarry(
     state=state,
-    obs_history=agent_lib.initial_history(observations.policy_input(state.obs, image_keys), n_obs_steps),
+    obs_history=agent_lib.initial_history(observations.policy_input(state.obs, image_keys, lowdim_keys), n_obs_steps),
     done=no,
     success=no,
     length=jnp.zeros(reset_keys.shape[0], jnp.int32),
@@ -118,7 +123,7 @@ def initial_carry(env, n_obs_steps: int, reset_keys, image_keys: tuple[str, ...]
 def _run_slice(env, agent: Agent, strategy, reset_keys, key, decisions_per_call, bar):
   ta, episode_length = agent.policy.n_action_steps, env.episode_length
   total = -(-episode_length // ta)
-  carry = initial_carry(env, agent.policy.n_obs_steps, reset_keys, agent.policy.image_keys)
+  carry = initial_carry(env, agent.policy.n_obs_steps, reset_keys, agent.policy.image_keys, agent.policy.lowdim_keys)
   start_eef = np.asarray(observations.eef_positions(carry.state.obs))
   records, auxes = [], []
   decided = 0
@@ -145,6 +150,7 @@ def _run_slice(env, agent: Agent, strategy, reset_keys, key, decisions_per_call,
   success, length = jax.device_get((carry.success, carry.length))
   return dict(
     obs=rec["obs"],
+    policy_obs=rec["policy_obs"],
     next_obs=rec["next_obs"],
     actions=rec["action"],
     qpos=rec["qpos"],

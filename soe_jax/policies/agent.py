@@ -91,6 +91,12 @@ def push_history(history, obs):
   return jax.tree.map(lambda h, x: jnp.concatenate([h[:, 1:], x[:, None]], axis=1), history, obs)
 
 
+def lowdim_latest(obs_history) -> jax.Array:
+  """(B, D): the latest low-dim observation of histories of either form (what the policy read)."""
+  lowdim = obs_history["lowdim"] if isinstance(obs_history, dict) else obs_history
+  return lowdim[:, -1]
+
+
 def batch_size(obs_history) -> int:
   """B of an observation history of either form."""
   return jax.tree.leaves(obs_history)[0].shape[0]

@@ -30,7 +30,6 @@ from soe_jax.experiment import task
 from soe_jax.experiment.rundir import RunDir
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.policies import agent as agent_lib
-from soe_jax.policies.normalizer import lowdim
 from soe_jax.render.pool import Renderer
 from soe_jax.runtime.errors import UserError
 from soe_jax.train import checkpoint
@@ -101,7 +100,7 @@ class SteeringSession:
     return self.view()
 
   def _policy_input(self):
-    return observations.policy_input(self.state.obs, self.policy.image_keys)
+    return observations.policy_input(self.state.obs, self.policy.image_keys, self.policy.lowdim_keys)
 
   def _check_round(self, round_) -> None:
     if round_ is not None and int(round_) != self.round:
@@ -136,14 +135,14 @@ class SteeringSession:
         f"unknown proposal {proposal_id!r}; the current ones are {token}-0 .. {token}-{len(cands) - 1}"
       )
     for action in cands[int(index)]:
-      self.episode["obs"].append(np.asarray(lowdim(self.hist)[0, -1]))
+      self.episode["obs"].append(np.asarray(observations.policy_obs(self.state.obs)[0]))
       self.episode["states"].append(
         self.env.physics.sim_state_float64(self.env.physics.sim_state(self.state.pipeline_state))[0]
       )
       self.episode["actions"].append(np.asarray(action))
       self.state = self._step(self.state, jnp.asarray(action)[None])
       self.hist = agent_lib.push_history(self.hist, self._policy_input())
-      self.episode["next_obs"].append(np.asarray(lowdim(self.hist)[0, -1]))
+      self.episode["next_obs"].append(np.asarray(observations.policy_obs(self.state.obs)[0]))
       self.eef.append(self._hands())
       if bool(self.state.metrics["success"][0] > 0):
         self.success = True
