@@ -10,6 +10,7 @@ import subprocess
 import sys
 
 import jax
+import ml_collections
 import numpy as np
 import pytest
 import websockets
@@ -63,6 +64,7 @@ def test_the_simulator_as_the_robot(tmp_path):
     demos = collect.demonstrations(env, 4, 1000, progress=False)
     export.write_lerobot(str(tmp_path / "demos"), [EpisodeSet(demos, 0)], {"env_name": toy.NAME})
     config = robot_config.config("smoke")
+    config.policy.head = ml_collections.ConfigDict(dict(name="mlp", kwargs=dict(hidden=(32, 32))))  # (compiles fast)
     config.dataset.update(path=str(tmp_path / "demos"), observations=tuple(f"observation.{k}" for k in KEYS),
                           gripper="identity")  # fmt: skip
     workdir = str(tmp_path / "run")
