@@ -125,3 +125,19 @@ def test_a_chunk_outside_the_action_box_is_never_sent():
       assert isinstance(reply, str) and "leaves the action box" in reply and "nothing was sent" in reply
   finally:
     server.shutdown()
+
+
+def test_a_frame_over_the_size_limit_closes_that_connection_only():
+  spec = PolicySpec.from_dict(SPEC)
+  server = PolicyServer(_agent(spec), spec, TOKEN, port=0, max_size=1024).start()
+  try:
+    with _connect(server) as ws, _connect(server) as other:
+      ws.recv(), other.recv()
+      ws.send(wire.packb({"state": np.zeros(7, np.float32), "padding": np.zeros(4096, np.uint8)}))
+      with pytest.raises(websockets.ConnectionClosed) as closed:
+        ws.recv()
+      assert closed.value.rcvd.code == 1009  # message too big
+      other.send(wire.packb({"state": np.zeros(7, np.float32)}))
+      assert wire.unpackb(other.recv())["actions"].shape == (8, 10)
+  finally:
+    server.shutdown()
