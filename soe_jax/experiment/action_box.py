@@ -49,7 +49,7 @@ def check(sets: list[EpisodeSet], norm: Normalizer, spec: PolicySpec, mode: str,
         t, d = map(int, np.argwhere(out)[0])
         lo, hi = (np.asarray(x, np.float64) for x in (norm.unnormalize_actions(-1.0), norm.unnormalize_actions(1.0)))
         raise UserError(
-          f"{path_of(s)}: episode {i}, step {t}: action dimension {d} ({dimension_name(spec, d)}) is "
+          f"{path_of(s)}: episode {ep.get('episode_index', i)}, step {t}: action dimension {d} ({dimension_name(spec, d)}) is "
           f"{actions[t, d]:.5f}, outside the action box [{lo[d]:.5f}, {hi[d]:.5f}] (policy.action_range="
           "workspace: the task's workspace); training would clip it. Record actions inside the box, or "
           "use policy.action_range=demonstrations"

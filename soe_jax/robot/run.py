@@ -22,6 +22,7 @@ import ml_collections
 
 from soe_jax.data import spec as spec_lib
 from soe_jax.data.episodes import EpisodeSet, build_buffer
+from soe_jax.experiment import action_box
 from soe_jax.robot import dataset as dataset_lib
 from soe_jax.runtime import atomic, interrupt
 from soe_jax.runtime.errors import UserError
@@ -80,8 +81,9 @@ def _prepared(config: ml_collections.ConfigDict, progress: bool):
   return config, spec, policy, demos
 
 
-def _fit(config, spec, policy, sets, r: int, workdir: str, norm, init_state, progress: bool) -> dict:
-  """Round r's fit on `sets`, saved to rounds/<r>/ckpt with its record -> the record."""
+def _fit(config, spec, policy, sets, r: int, workdir: str, norm, init_state, progress: bool, paths: dict) -> dict:
+  """Round r's fit on `sets` (read from the datasets `paths` {source: path}), saved to rounds/<r>/ckpt
+  with its record -> the record."""
   rdir = _round_dir(workdir, r)
   record_path = os.path.join(rdir, "fit.json")
   if os.path.exists(record_path):
@@ -103,6 +105,10 @@ def _fit(config, spec, policy, sets, r: int, workdir: str, norm, init_state, pro
     saved = atomic.read_json(os.path.join(partial, "progress.json"))
     state, start, history = checkpoint.load(partial, spec).state, saved["done"], saved["history"]
   every = max(1, int(config.fit.checkpoint_every) // int(config.fit.chunk_size)) if config.fit.checkpoint_every else 0
+  # Never clipped silently: a target outside the box is an error (a stated box), or counted (the data's range).
+  clipped = action_box.check(
+    sets, norm, spec, config.policy.action_range, lambda s: f"round {s.source}'s dataset", policy
+  )
   buf = build_buffer(config, policy, sets)
   with interrupt.deferred("stopping: saving the fit after the chunk in progress (again to stop now)") as stop:
 
@@ -124,6 +130,7 @@ def _fit(config, spec, policy, sets, r: int, workdir: str, norm, init_state, pro
     loss_curve=[h["loss"] for h in history],
     num_episodes=sum(len(s.episodes) for s in sets),
     episodes_by_source={str(s.source): len(s.episodes) for s in sets},
+    actions_clipped=clipped,
   )
   atomic.write_json(record_path, record)  # last: the round is done
   return record
@@ -145,7 +152,7 @@ def fit(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
     norm = normalization.fit_normalizer(policy, spec, demos, config.policy.action_range, margin)
   except ValueError as e:
     raise UserError(str(e)) from None
-  return _fit(config, spec, policy, [EpisodeSet(demos, 0)], 0, workdir, norm, None, progress)
+  return _fit(config, spec, policy, [EpisodeSet(demos, 0)], 0, workdir, norm, None, progress, {0: config.dataset.path})
 
 
 def last_round(workdir: str) -> int:
@@ -199,11 +206,12 @@ def refit(workdir: str, recorded: str, progress: bool = True, mode: str | None =
   if os.path.exists(data_path) and atomic.read_json(data_path)["dataset"] != recorded:
     raise UserError(f"{workdir}: round {r} is under way with {atomic.read_json(data_path)['dataset']}; finish it first")
   _, demos = dataset_lib.read(config.dataset.path, config.dataset, progress=progress)
-  sets = [EpisodeSet(demos, 0)]
+  sets, paths = [EpisodeSet(demos, 0)], {0: config.dataset.path, r: recorded}
   for q in range(1, r):
     taken = atomic.read_json(os.path.join(_round_dir(workdir, q), "data.json"))
     _, eps = dataset_lib.read(taken["dataset"], config.dataset, taken["episodes"], progress)
     sets.append(EpisodeSet(eps, q))
+    paths[q] = taken["dataset"]
   rec_spec, episodes = dataset_lib.read(recorded, config.dataset, progress=progress)
   if rec_spec.to_dict() != spec.to_dict():
     raise UserError(f"{recorded}: its spec differs from the policy's ({os.path.join(workdir, spec_lib.SPEC_FILE)})")
@@ -216,4 +224,4 @@ def refit(workdir: str, recorded: str, progress: bool = True, mode: str | None =
                                     recorded=len(episodes), episodes=[ep["episode_index"] for ep in taken]))  # fmt: skip
   sets.append(EpisodeSet(taken, r))
   norm = loaded.state.normalizer  # the statistics stay those of the demonstrations
-  return _fit(config, spec, loaded.policy, sets, r, workdir, norm, loaded.state, progress)
+  return _fit(config, spec, loaded.policy, sets, r, workdir, norm, loaded.state, progress, paths)
