@@ -14,7 +14,7 @@ LAYERS = [
   ("policies",),
   ("train", "explore"),
   ("experiment",),
-  ("analysis", "steer", "serve", "bench"),
+  ("analysis", "steer", "serve", "robot", "bench"),
   ("commands", "main", "__main__"),
 ]
 LEVEL = {name: i for i, names in enumerate(LAYERS) for name in names}
