@@ -27,7 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from soe_jax.analysis.tables import markdown
-from soe_jax.data.episodes import policy_episode
+from soe_jax.data.episodes import decisions
 from soe_jax.experiment import rundir
 from soe_jax.experiment.rundir import RunDir
 from soe_jax.runtime import atomic
@@ -40,17 +40,6 @@ MM = 1000.0
 def _positions(chunks: jax.Array, num_robots: int) -> jax.Array:
   """(..., Ta, A) -> (..., Ta, R, 3)."""
   return chunks.reshape(chunks.shape[:-1] + (num_robots, -1))[..., :3]
-
-
-def _histories(ep: dict, keys, to: int, ta: int) -> tuple[np.ndarray, np.ndarray]:
-  """An episode's decisions: observation histories (N, To, D) and the recorded executed actions (N, Ta, A)
-  (the last padded with the last action)."""
-  flat = policy_episode(ep, keys)
-  obs, actions = flat["policy_obs"], flat["actions"]
-  t = np.arange(0, len(actions), ta)
-  hist = obs[np.clip(t[:, None] + np.arange(-to + 1, 1), 0, len(obs) - 1)]
-  act = actions[np.clip(t[:, None] + np.arange(ta), 0, len(actions) - 1)]
-  return hist, act
 
 
 def measure(workdir: str, samples: int = 8, alphas=(0.0, 1.0, 2.0), seed: int = 0) -> dict:
@@ -99,7 +88,7 @@ def measure(workdir: str, samples: int = 8, alphas=(0.0, 1.0, 2.0), seed: int = 
 
   rows, key = [], jax.random.key(seed)
   for i, ep in enumerate(kept):
-    hists, recorded = _histories(ep, policy.lowdim_keys, to, ta)
+    _, hists, recorded = decisions(ep, policy.lowdim_keys, to, ta)
     for j, (h, r) in enumerate(zip(hists, recorded)):
       rows.append(
         jax.device_get(decide(jnp.asarray(h), jnp.asarray(r), jax.random.fold_in(jax.random.fold_in(key, i), j)))

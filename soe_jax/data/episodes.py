@@ -77,6 +77,17 @@ def policy_frames(episodes: list[dict], keys: tuple[str, ...]) -> tuple[np.ndarr
   return np.concatenate([e["policy_obs"] for e in flat]), np.concatenate([e["actions"] for e in flat])
 
 
+def decisions(ep: dict, keys: tuple[str, ...], n_obs_steps: int, n_action_steps: int):
+  """An episode's decisions (every Ta steps from 0): their steps (N,), the observation histories the
+  policy saw there (N, To, D; the first frame repeated before the start) and the executed actions
+  recorded from each (N, Ta, A; the last repeated past the end)."""
+  flat = policy_episode(ep, keys)
+  obs, actions = flat["policy_obs"], flat["actions"]
+  t = np.arange(0, len(actions), n_action_steps)
+  hists = obs[np.clip(t[:, None] + np.arange(-n_obs_steps + 1, 1), 0, len(obs) - 1)]
+  return t, hists, actions[np.clip(t[:, None] + np.arange(n_action_steps), 0, len(actions) - 1)]
+
+
 def policy_windows(episodes: list[dict], policy) -> dict:
   """Every training window of `episodes` in order, as the fit samples them for `policy`
   (`buffer.windows`): {"obs": (N, To, D) low-dim, "actions": (N, T, A)} raw."""

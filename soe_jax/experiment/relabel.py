@@ -22,7 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from soe_jax.data import hdf5
-from soe_jax.data.episodes import policy_episode
+from soe_jax.data.episodes import decisions
 from soe_jax.experiment import rundir
 from soe_jax.experiment.rundir import RunDir
 from soe_jax.runtime import atomic
@@ -52,10 +52,8 @@ def relabelled(episodes: list[dict], agent, policy, labels: str, alpha: float, s
 
   out = []
   for i, ep in enumerate(episodes):
-    obs = policy_episode(ep, policy.lowdim_keys)["policy_obs"]
+    t, hists, _ = decisions(ep, policy.lowdim_keys, to, ta)
     actions = np.array(ep["actions"], np.float32)
-    t = np.arange(0, len(actions), ta)
-    hists = obs[np.clip(t[:, None] + np.arange(-to + 1, 1), 0, len(obs) - 1)]
     keys = jax.vmap(lambda j: jax.random.fold_in(jax.random.fold_in(jax.random.key(seed), i), j))(jnp.arange(len(t)))
     chunks = np.asarray(jax.vmap(lambda h, k: chunk(h[None], k)[0])(jnp.asarray(hists), keys))
     for d, start in enumerate(t):
