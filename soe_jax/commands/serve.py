@@ -1,19 +1,25 @@
 """Serve a checkpoint's policy to a robot over openpi's websocket protocol (`soe_jax/serve/server.py`).
 
-  python -m soe_jax serve --checkpoint=runs/lift-soe-seed0/round1/ckpt [--port=8000] [--host=127.0.0.1]
+  python -m soe_jax serve --checkpoint=runs/robot/rounds/0/ckpt [--port=8000] [--host=127.0.0.1]
+      [--mode=base|soe|sime|steer] [--record=DIR] [--page_port=8001]
 
-Compiles the policy, then listens; the first lines printed are the address and the token every client
-must send (openpi-client: `WebsocketClientPolicy(host, port, api_key=TOKEN)`, wrapped in
+Compiles every mode (`serve/modes.py`), then listens; the first lines printed are the address, the
+page's address and the token every client must send (openpi-client: `WebsocketClientPolicy(host, port, api_key=TOKEN)`, wrapped in
 `ActionChunkBroker(policy, action_horizon=Ta)` with the Ta printed). The token is random per start
 unless the environment variable SOE_JAX_SERVE_TOKEN gives one. Bound to 127.0.0.1 unless --host says
 otherwise (then with a warning: anyone on that network who has the token can drive the robot).
-Ctrl-C stops it.
+Each request may name its mode (`mode` in the observation dict; --mode is the default). With --record,
+episodes a person labels (from the robot's helper, `soe_jax/serve/client.py`, or on the page) are written
+as a LeRobotDataset under DIR/lerobot (`serve/recorder.py`), which `refit --episodes=DIR/lerobot` takes.
+The page (`serve/page.py`) shows each robot's cameras, the steering proposals to choose from and the
+ended episodes to label. Ctrl-C stops it.
 """
 
 from __future__ import annotations
 
 import os
 import secrets
+import threading
 
 from soe_jax.runtime import cli
 from soe_jax.runtime.errors import UserError
@@ -30,28 +36,62 @@ FLAGS.integer(
 )
 FLAGS.list("origin", [], "Browser origins allowed to connect (none by default; robots' clients send no Origin).")
 FLAGS.integer("max_message_mb", 16, "Largest frame accepted, in MiB.", lower_bound=1)
+FLAGS.string("mode", "base", "The mode of requests that name none: base, soe, sime or steer.")
+FLAGS.string("record", None, "Write the labelled episodes under this directory (DIR/lerobot); none: not recording.")
+FLAGS.string("task", "", "The task's description, written with each recorded episode.")
+FLAGS.integer("page_port", 8001, "The page's port (0: any free one; -1: no page).", lower_bound=-1)
+FLAGS.float("steer_timeout", 30.0, "Seconds a steer request waits for a choice on the page.", lower_bound=0.0)
+FLAGS.float("alpha", 2.0, "soe's exploration scale.", lower_bound=0.0)
+FLAGS.float("sime_scale", None, "SIME's noise scale (default 0.01 for a low-dim policy, 0.5 for an image policy).")
+FLAGS.integer("steer_dims", 4, "Effective latent dimensions offered when steering (highest SNR first).", lower_bound=1)
+FLAGS.integer("steer_choices", 3, "Proposals shown per dimension.", lower_bound=1)
 
 
 def _serve(argv: list[str]) -> None:
   cli.positional(argv, "0", "python -m soe_jax serve --checkpoint=DIR [--host=H --port=P]")
+  from soe_jax.serve import modes as modes_lib
+  from soe_jax.serve import page, recorder
   from soe_jax.serve.server import PolicyServer  # (websockets: the server's import only)
   from soe_jax.train import checkpoint
 
+  if FLAGS.mode not in modes_lib.MODES:
+    raise UserError(f"unknown --mode {FLAGS.mode!r}; known: {', '.join(modes_lib.MODES)}")
   try:
     loaded = checkpoint.load(FLAGS.checkpoint)
   except (FileNotFoundError, ValueError) as e:
     raise UserError(str(e)) from None
+  scale = FLAGS.sime_scale if FLAGS.sime_scale is not None else (0.5 if loaded.policy.image_keys else 0.01)
+  settings = modes_lib.Settings(alpha=FLAGS.alpha, sime_scale=scale, max_dims=FLAGS.steer_dims,
+                                num_choices=FLAGS.steer_choices)  # fmt: skip
+  modes = modes_lib.Modes(loaded.agent, loaded.spec, settings, modes_lib.stored_snr(FLAGS.checkpoint))
+  try:
+    modes.check(FLAGS.mode)
+  except ValueError as e:
+    raise UserError(f"--mode: {e}") from None
+  if FLAGS.record and not float(loaded.spec.control_hz).is_integer():
+    raise UserError(f"--record: LeRobot keeps a whole number of frames per second; the policy's rate is "
+                    f"{loaded.spec.control_hz:g} Hz")  # fmt: skip
   if FLAGS.host not in LOOPBACK:
     print(
       f"warning: serving on {FLAGS.host}, reachable from the network; only the token keeps strangers out", flush=True
     )
   token = os.environ.get(TOKEN_VARIABLE) or secrets.token_urlsafe(24)
   print(f"compiling the policy of {FLAGS.checkpoint} ...", flush=True)
+  try:
+    rec = recorder.Recorder(FLAGS.record, loaded.spec, FLAGS.task) if FLAGS.record else None
+  except recorder.LabelError as e:
+    raise UserError(f"--record: {e}") from None
   server = PolicyServer(loaded.agent, loaded.spec, token, FLAGS.host, FLAGS.port, FLAGS.seed, tuple(FLAGS.origin),
-                        FLAGS.max_message_mb << 20)  # fmt: skip
+                        FLAGS.max_message_mb << 20, modes, FLAGS.mode, rec, FLAGS.steer_timeout)  # fmt: skip
   print(f"serving on ws://{server.host}:{server.port} (action_horizon={loaded.policy.n_action_steps}, "
-        f"{loaded.spec.control_hz:g} Hz)", flush=True)  # fmt: skip
+        f"{loaded.spec.control_hz:g} Hz, modes {', '.join(modes.available)}, default {FLAGS.mode})", flush=True)  # fmt: skip
+  if FLAGS.page_port >= 0:
+    httpd = page.serve(server, FLAGS.host, FLAGS.page_port)
+    threading.Thread(target=httpd.serve_forever, daemon=True).start()
+    print(f"page: http://{server.host}:{httpd.server_address[1]}/?token={token}", flush=True)
   print(f"token: {token}", flush=True)
+  if rec is not None:
+    print(f"recording labelled episodes to {rec.dataset} ({rec.saved} there already)", flush=True)
   server.serve_forever()
 
 

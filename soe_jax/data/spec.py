@@ -109,6 +109,18 @@ class PolicySpec:
         out += [how == "range"] * size
     return np.asarray(out, bool)
 
+  def position_indices(self) -> list[list[int]]:
+    """Per arm, the action's indices of its commanded position (empty for an arm without one)."""
+    out, start = [], 0
+    for arm in self.actions:
+      idx = []
+      for part, size in arm:
+        if part == "position":
+          idx = list(range(start, start + size))
+        start += size
+      out.append(idx)
+    return out
+
   def to_dict(self) -> dict:
     return dataclasses.asdict(self)
 

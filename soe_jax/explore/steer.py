@@ -41,38 +41,6 @@ class ScriptedChooser:
     return jnp.argmin(dist, axis=1), jnp.min(dist, axis=1)
 
 
-def candidates(
-  agent,
-  obs_history,
-  key,
-  dims: tuple[int, ...],
-  alpha: float,
-  num_proposals: int,
-  num_choices: int,
-  num_robots: int = 1,
-) -> tuple[jax.Array, jax.Array]:
-  """For each latent dimension in `dims`: `num_proposals` latents varying only that dimension around mu,
-  decoded to executed chunks, and `num_choices` of them picked by farthest point sampling over their
-  end-effector paths (every robot's). -> (candidates (B, len(dims) * num_choices, Ta, A) raw, dim of
-  each candidate)."""
-  mu, log_std = agent.latent(obs_history)
-  b, d = mu.shape
-  chosen = []
-  for j, dim in enumerate(dims):
-    key_z, key_head = jax.random.split(jax.random.fold_in(key, j))
-    z = jax.vmap(lambda m, s, k: steering.dimension_proposals(m, s, dim, k, num_proposals, alpha))(
-      mu, log_std, jax.random.split(key_z, b)
-    )
-    history = jax.tree.map(lambda x: jnp.repeat(x, num_proposals, axis=0), obs_history)
-    chunks = agent.executed(agent.decode_chunk(z.reshape(b * num_proposals, d), key_head, history))
-    chunks = chunks.reshape((b, num_proposals) + chunks.shape[1:])
-    paths = observations.action_positions(chunks, num_robots)
-    idx = jax.vmap(lambda p: steering.farthest_point_sampling(p, num_choices))(paths)
-    chosen.append(jnp.take_along_axis(chunks, idx[:, :, None, None], axis=1))
-  dim_of = jnp.repeat(jnp.asarray(dims, jnp.int32), num_choices)
-  return jnp.concatenate(chosen, axis=1), dim_of
-
-
 @dataclasses.dataclass(frozen=True)
 class SoeSteer(Strategy):
   """Steering along `dims` with `chooser`. `prepare` sets `dims`: the effective latent dimensions over
@@ -106,7 +74,8 @@ class SoeSteer(Strategy):
     return dataclasses.replace(self, dims=dims), dict(snr_db=[round(float(x), 2) for x in snr], steer_dims=list(dims))
 
   def candidates(self, agent, obs_history, key, dims: tuple[int, ...]):
-    return candidates(agent, obs_history, key, dims, self.alpha, self.num_proposals, self.num_choices, self.num_robots)
+    positions = lambda a: observations.action_positions(a, self.num_robots)
+    return steering.candidates(agent, obs_history, key, dims, self.alpha, self.num_proposals, self.num_choices, positions)
 
   def __call__(self, agent, obs_history, env_state, key):
     b = agent_lib.batch_size(obs_history)

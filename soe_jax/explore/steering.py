@@ -87,6 +87,29 @@ def buffer_snr(agent, buf, key: jax.Array, num_windows: int) -> jax.Array:
   return snr_db(*buffer_latents(agent, buf, key, num_windows))
 
 
+def candidates(agent, obs_history, key, dims: tuple[int, ...], alpha: float, num_proposals: int, num_choices: int,
+               positions) -> tuple[jax.Array, jax.Array]:  # fmt: skip
+  """For each latent dimension in `dims`: `num_proposals` latents varying only that dimension around mu,
+  decoded to executed chunks, and `num_choices` of them picked by farthest point sampling over their
+  end-effector paths (`positions`: (..., A) actions -> (..., R, 3), every arm's commanded position).
+  -> (candidates (B, len(dims) * num_choices, Ta, A) raw, the dimension of each candidate)."""
+  mu, log_std = agent.latent(obs_history)
+  b, d = mu.shape
+  chosen = []
+  for j, dim in enumerate(dims):
+    key_z, key_head = jax.random.split(jax.random.fold_in(key, j))
+    z = jax.vmap(lambda m, s, k: dimension_proposals(m, s, dim, k, num_proposals, alpha))(
+      mu, log_std, jax.random.split(key_z, b)
+    )
+    history = jax.tree.map(lambda x: jnp.repeat(x, num_proposals, axis=0), obs_history)
+    chunks = agent.executed(agent.decode_chunk(z.reshape(b * num_proposals, d), key_head, history))
+    chunks = chunks.reshape((b, num_proposals) + chunks.shape[1:])
+    idx = jax.vmap(lambda p: farthest_point_sampling(p, num_choices))(positions(chunks))
+    chosen.append(jnp.take_along_axis(chunks, idx[:, :, None, None], axis=1))
+  dim_of = jnp.repeat(jnp.asarray(dims, jnp.int32), num_choices)
+  return jnp.concatenate(chosen, axis=1), dim_of
+
+
 def effective_dims(snr, threshold_db: float = 0.0, max_dims: int | None = None) -> tuple[int, ...]:
   """The effective dimensions, SNR above `threshold_db`, highest SNR first (at most `max_dims` of them;
   their count uncapped is the paper's number of effective dimensions)."""

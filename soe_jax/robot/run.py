@@ -2,7 +2,8 @@
 `refit` (the next round, adding the episodes of a recorded dataset labelled successful).
 
 A workdir holds `config.json`, `spec.json`, and per round r `rounds/<r>/ckpt` (what `serve` loads),
-`rounds/<r>/fit.json` (the fit's record: steps, loss curve, episodes by source) and for r >= 1
+`rounds/<r>/fit.json` (the fit's record: steps, loss curve, episodes by source, the latent's SNR per
+dimension over the fit's data, which the server's steering reads) and for r >= 1
 `rounds/<r>/data.json` (the recorded dataset and the episodes taken from it). Round r's fit trains on
 the demonstrations and every episode rounds 1..r took, read again from their datasets. Everything is
 checked before anything is written; a fit stopped midway resumes where it was saved (`fit.checkpoint_every`)
@@ -23,6 +24,8 @@ import ml_collections
 from soe_jax.data import spec as spec_lib
 from soe_jax.data.episodes import EpisodeSet, build_buffer
 from soe_jax.experiment import action_box
+from soe_jax.explore import steering
+from soe_jax.policies.agent import Agent
 from soe_jax.robot import dataset as dataset_lib
 from soe_jax.runtime import atomic, interrupt
 from soe_jax.runtime.errors import UserError
@@ -31,7 +34,8 @@ from soe_jax.train import fit as fit_lib
 
 SELECTIONS = ("all_successes", "first_success")
 REFIT_MODES = ("continue", "scratch")
-_INIT, _FIT = 0, 1  # key streams
+_INIT, _FIT, _SNR = 0, 1, 2  # key streams
+SNR_WINDOWS = 2048  # observation histories the stored SNR is measured over (as `soe_steer`'s)
 
 
 def _round_dir(workdir: str, r: int) -> str:
@@ -123,6 +127,10 @@ def _fit(config, spec, policy, sets, r: int, workdir: str, norm, init_state, pro
                                  f"round {r} fit", start, history, on_chunk)  # fmt: skip
   checkpoint.save(os.path.join(rdir, "ckpt"), state, config, spec)
   shutil.rmtree(partial, ignore_errors=True)
+  snr = None
+  if policy.bypass:  # the latent's SNR over this fit's data: the server's steering dimensions
+    agent = Agent.from_state(policy, state)
+    snr = [round(float(x), 3) for x in steering.buffer_snr(agent, buf, jax.random.fold_in(root, _SNR), SNR_WINDOWS)]
   record = dict(
     round=r,
     steps=steps,
@@ -131,6 +139,7 @@ def _fit(config, spec, policy, sets, r: int, workdir: str, norm, init_state, pro
     num_episodes=sum(len(s.episodes) for s in sets),
     episodes_by_source={str(s.source): len(s.episodes) for s in sets},
     actions_clipped=clipped,
+    snr_db=snr,
   )
   atomic.write_json(record_path, record)  # last: the round is done
   return record

@@ -13,12 +13,17 @@ request (not msgpack, a missing key, a wrong shape or dtype) or a chunk that is 
 finite, outside the action box) gets one text frame saying what, as openpi's server sends its
 errors, and that connection is closed; the others are served on. Each connection has its own
 observation history and runs in its own thread.
+
+The page (`page.py`, on its own port in the same process) reads the connections' state from
+`sessions` and answers steering requests and labels: a steer request waits (`_choose`) until the page
+picks a proposal, the timeout passes, or the robot disconnects.
 """
 
 from __future__ import annotations
 
 import hmac
 import http
+import itertools
 import logging
 import threading
 import time
@@ -26,26 +31,45 @@ import time
 import websockets
 import websockets.sync.server as ws_server
 from websockets.frames import CloseCode
+from websockets.protocol import State
 
 from soe_jax.data.spec import PolicySpec
 from soe_jax.policies.agent import Agent
+from soe_jax.serve import modes as modes_lib
+from soe_jax.serve import recorder as recorder_lib
 from soe_jax.serve import session as session_lib
 from soe_jax.serve import wire
 
 log = logging.getLogger(__name__)
 
 
+class StaleChoice(ValueError):
+  """A choice for a steering request that is no longer waiting (timed out, answered, robot gone)."""
+
+
 class PolicyServer:
-  """`agent` served on `host`:`port` (0: any free port) to clients holding `token`."""
+  """`agent` served on `host`:`port` (0: any free port) to clients holding `token`, in `modes` (default
+  `default_mode`), recording labelled episodes with `recorder` (None: not recording); a steer request
+  waits `steer_timeout` seconds for the page's choice."""
 
   def __init__(self, agent: Agent, spec: PolicySpec, token: str, host: str = "127.0.0.1", port: int = 8000,
-               seed: int = 0, origins: tuple[str, ...] = (), max_size: int = 16 << 20):  # fmt: skip
+               seed: int = 0, origins: tuple[str, ...] = (), max_size: int = 16 << 20,
+               modes: modes_lib.Modes | None = None, default_mode: str = "base",
+               recorder: recorder_lib.Recorder | None = None, steer_timeout: float = 30.0):  # fmt: skip
     if not token:
       raise ValueError("a policy server needs a token")
     self.agent, self.spec, self.token, self.seed = agent, spec, token, seed
     self.origins = tuple(origins)
-    self.metadata = session_lib.metadata(spec, agent)
-    session_lib.warm_up(agent, spec)  # every compiled program before the port opens
+    self.modes = modes if modes is not None else modes_lib.Modes(agent, spec)
+    self.default_mode = self.modes.check(default_mode)
+    self.recorder, self.steer_timeout = recorder, float(steer_timeout)
+    self.metadata = session_lib.metadata(spec, agent, self.modes, default_mode)
+    self.sessions: dict[str, session_lib.Session] = {}  # the connections open now, by name
+    self._names = itertools.count(1)
+    self._cond = threading.Condition()
+    self._waiting: dict[tuple[str, str], int | None] = {}  # steering requests waiting for a choice
+    self._gone: dict[tuple[str, str], str] = {}  # those that stopped waiting, and why
+    session_lib.warm_up(agent, spec, self.modes)  # every compiled program before the port opens
     self._server = ws_server.serve(
       self._handle, host, port, compression=None, max_size=max_size, process_request=self._admit,
       server_header="soe_jax",
@@ -68,8 +92,61 @@ class PolicyServer:
       )
     return None
 
+  def _choose(self, session: session_lib.Session, steering: dict) -> int | None:
+    """Wait for the page's choice of one of `steering`'s proposals: its index, or None when the timeout
+    passes or the robot disconnects first."""
+    key = (session.name, steering["request"])
+    deadline = time.monotonic() + self.steer_timeout
+    with self._cond:
+      self._waiting[key] = None
+      self._cond.notify_all()
+      while self._waiting[key] is None:
+        left = deadline - time.monotonic()
+        if left <= 0 or not session.alive():
+          break
+        self._cond.wait(min(left, 0.1))
+      choice = self._waiting.pop(key)
+      if choice is None:
+        self._gone[key] = "the robot disconnected" if not session.alive() else (
+          f"it timed out after {self.steer_timeout:g} s and the robot went on with the base path")
+    return choice
+
+  def choose(self, connection: str, request: str, index) -> None:
+    """The page's choice of proposal `index` for the waiting steering request `request` of `connection`."""
+    key = (str(connection), str(request))
+    with self._cond:
+      if key not in self._waiting:
+        why = self._gone.get(key)
+        raise StaleChoice(f"steering request {request} of connection {connection} is not waiting: "
+                          + (why or "there is no such request"))  # fmt: skip
+      session = self.sessions.get(key[0])
+      count = len(session.steering["proposals"]) if session is not None and session.steering else 0
+      if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < count:
+        raise StaleChoice(f"proposal {index!r}: choose one of 0 .. {count - 1}")
+      self._waiting[key] = index
+      self._cond.notify_all()
+
+  def waiting(self) -> list[tuple[str, str]]:
+    with self._cond:
+      return [k for k, v in self._waiting.items() if v is None]
+
   def _handle(self, connection: ws_server.ServerConnection) -> None:
-    session = session_lib.Session(self.agent, self.spec, self.seed)
+    name = f"c{next(self._names)}"
+    session = session_lib.Session(self.agent, self.spec, self.seed, self.modes, self.default_mode, self._choose,
+                                  self.recorder, name)  # fmt: skip
+    session.alive = lambda: connection.state is State.OPEN
+    self.sessions[name] = session
+    try:
+      self._serve_connection(connection, session)
+    finally:
+      session.closed = True
+      if not session.ended:  # (kept while an ended episode awaits the page's label)
+        self.sessions.pop(name, None)
+      if session.log is not None:
+        log.warning("%s disconnected in episode %d: not recorded (an episode is written only when labelled)",
+                    name, session.log.number)  # fmt: skip
+
+  def _serve_connection(self, connection: ws_server.ServerConnection, session: session_lib.Session) -> None:
     connection.send(wire.packb(self.metadata))
     previous = None
     while True:

@@ -1,16 +1,27 @@
 """What a policy server does per connection, without the network: check an observation against the
-policy's spec, keep the connection's observation history, sample a chunk and reply with its executed
-actions. `server.py` puts it on a websocket.
+policy's spec, keep the connection's observation history, pick a chunk in the request's mode, reply
+with its executed actions, and record the episode for a person's label.
 
 A request is the robot's observation dict in raw units: every key of the spec (`data.spec.PolicySpec`:
-low-dimensional vectors as float arrays of their shapes, camera images as (H, W, 3) uint8), plus
-optionally `timestamp` (seconds, of the observation) and `episode_start` (true on an episode's first
-observation; openpi's `reset()` sends nothing, so the robot says it here). Other keys are ignored.
-The reply holds chunk-first arrays, as openpi's `ActionChunkBroker(policy, action_horizon=Ta)` slices:
+low-dimensional vectors as float arrays of their shapes, camera images as (H, W, 3) uint8), either one
+observation or, with a leading axis of k, the k observations taken since the previous request (one
+after each executed action, so the history holds consecutive steps and the recorder every step; a
+client that sends one observation per chunk gives the policy a history of observations a chunk
+apart); optionally `timestamp` (seconds, of the latest observation), `episode_start` (true on an
+episode's first observation; openpi's `reset()` sends nothing, so the robot says it here) and `mode`
+(`modes.MODES`, default the server's). Other keys are ignored. The reply holds chunk-first arrays, as
+openpi's `ActionChunkBroker(policy, action_horizon=Ta)` slices:
 
   actions     (Ta, A) float32   chunk[To-1 : To-1+Ta] in the robot's frame (absolute poses)
   timestamps  (Ta,)   float64   when each action is due: the observation's timestamp + i / control_hz
   server_timing {"infer_ms": ...}  (added by the server)
+  steering    (steer mode only; plain lists, which the broker passes through) {"dims", "proposals"
+              (C, Ta, A), "dim_of" (C,), "chosen" (index or None), "timed_out"}
+
+A steer request waits for a person's choice (`chooser`) up to the server's timeout, then executes the
+base path for the same key and says so. `{"episode_end": true, "label": "success" | "failure" |
+"discard" (or absent: the page labels it), "start_state": n (optional), <observations since>}` ends
+the episode; the reply is `{"recorded": ...}` (see `recorder.py`).
 
 The sampling key of request n of the connection's episode e is fold_in(fold_in(key(seed), e), n), so a
 fixed observation and key give the chunk the policy gives in-process (`request_key`).
@@ -19,7 +30,9 @@ fixed observation and key give the chunk the policy gives in-process (`request_k
 from __future__ import annotations
 
 import functools
+import threading
 import time
+from collections.abc import Callable
 
 import jax
 import numpy as np
@@ -27,8 +40,11 @@ import numpy as np
 from soe_jax.data.spec import PolicySpec
 from soe_jax.policies import agent as agent_lib
 from soe_jax.policies.agent import Agent
+from soe_jax.serve import recorder as recorder_lib
+from soe_jax.serve.modes import Modes
 
 BOX_TOL = 1e-5  # relative to the box's size: the sampler's clip lands on its faces, in float32
+MAX_SINCE = 1024  # observations one request may carry
 
 
 class RequestError(ValueError):
@@ -45,73 +61,209 @@ def request_key(seed: int, episode: int, step: int) -> jax.Array:
 
 @functools.lru_cache(maxsize=8)
 def chunk_fn(policy):
-  """The compiled (agent, history, key) -> chunk the server samples with (one per policy)."""
+  """The compiled (agent, history, key) -> chunk of the base path (one per policy)."""
   return jax.jit(lambda agent, history, key: agent.chunk(history, key))
 
 
-def policy_input(spec: PolicySpec, obs: dict):
-  """A checked raw observation dict -> one policy observation (batch of 1): the low-dim vector (1, D)
-  of the spec's keys in order, with {"lowdim", "images"} for an image policy."""
+def _scalar(v):
+  return v.item() if isinstance(v, np.ndarray) and v.shape == () else v  # openpi packs 0-d arrays so
+
+
+def observations_of(spec: PolicySpec, obs: dict) -> list[dict]:
+  """A request's raw observations, checked: one, or the k the leading axis holds -> k dicts of the
+  spec's keys (images uint8 (H, W, 3), vectors float32), oldest first."""
   if not isinstance(obs, dict):
     raise RequestError(f"a request is a dict of observations, got {type(obs).__name__}")
   missing = [k for k in spec.observations if k not in obs]
   if missing:
     raise RequestError(f"missing observation keys {missing}; the policy reads {list(spec.observations)}")
-  parts, images = [], {}
+  arrays, counts = {}, {}
   for key, info in spec.observations.items():
     value = obs[key]
     if not isinstance(value, (np.ndarray, np.generic, list, float, int)):
       raise RequestError(f"observation {key!r} is a {type(value).__name__}, not an array")
     value = np.asarray(value)
     shape = tuple(info["shape"])
+    stacked = value.ndim == len(shape) + 1 and value.shape[1:] == shape
     if info.get("image"):
-      if value.dtype != np.uint8 or value.shape != shape:
-        raise RequestError(f"image {key!r} must be uint8 of shape {list(shape)}, got {value.dtype} {list(value.shape)}")
-      images[key] = value[None]
+      if value.dtype != np.uint8 or (value.shape != shape and not stacked):
+        raise RequestError(f"image {key!r} must be uint8 of shape {list(shape)} (or k x that), got {value.dtype} "
+                           f"{list(value.shape)}")  # fmt: skip
     else:
-      if value.dtype.kind not in "fiu" or value.shape != shape:
+      if value.dtype.kind not in "fiu" or (value.shape != shape and not stacked):
         raise RequestError(
-          f"observation {key!r} must be numbers of shape {list(shape)}, got {value.dtype} {list(value.shape)}"
+          f"observation {key!r} must be numbers of shape {list(shape)} (or k x that), got {value.dtype} {list(value.shape)}"
         )
       if not np.all(np.isfinite(value)):
         raise RequestError(f"observation {key!r} is not finite: {value.tolist()}")
-      parts.append(value.astype(np.float32).reshape(-1))
+      value = value.astype(np.float32)
+    arrays[key] = value if stacked else value[None]
+    counts[key] = len(arrays[key])
+  k = set(counts.values())
+  if len(k) > 1:
+    raise RequestError(f"observations since the last request differ in number between keys: {counts}")
+  k = k.pop() if k else 1
+  if not 1 <= k <= MAX_SINCE:
+    raise RequestError(f"{k} observations in one request; between 1 and {MAX_SINCE}")
+  return [{key: v[i] for key, v in arrays.items()} for i in range(k)]
+
+
+def policy_input(spec: PolicySpec, obs: dict):
+  """A raw observation dict -> its latest observation as the policy reads it (batch of 1): the low-dim
+  vector (1, D) of the spec's keys in order, with {"lowdim", "images"} for an image policy."""
+  return _input(spec, observations_of(spec, obs)[-1])
+
+
+def _input(spec: PolicySpec, one: dict):
+  parts = [one[k].reshape(-1) for k in spec.lowdim_keys]
   vector = np.concatenate(parts)[None] if parts else np.zeros((1, 0), np.float32)
+  images = {k: one[k][None] for k in spec.image_keys}
   return {"lowdim": vector, "images": images} if images else vector
 
 
-class Session:
-  """One connection's episode: its observation history and its requests' keys."""
+# A steering request's wait: (session, steering dict) -> the chosen proposal's index, or None on timeout.
+Chooser = Callable[["Session", dict], "int | None"]
 
-  def __init__(self, agent: Agent, spec: PolicySpec, seed: int = 0):
-    self.agent, self.spec, self.seed = agent, spec, int(seed)
+
+class Session:
+  """One connection: its episodes, observation history, requests' keys and recording."""
+
+  def __init__(self, agent: Agent, spec: PolicySpec, seed: int = 0, modes: Modes | None = None,
+               default_mode: str = "base", chooser: Chooser | None = None,
+               recorder: recorder_lib.Recorder | None = None, name: str = "0"):  # fmt: skip
+    self.agent, self.spec, self.seed, self.name = agent, spec, int(seed), name
+    self.modes = modes if modes is not None else Modes(agent, spec)
+    self.default_mode = self.modes.check(default_mode)
+    self.chooser, self.recorder = chooser, recorder
     self.history = None
     self.episode, self.step = -1, 0
     self.bounds = spec.action_bounds()
+    self.lock = threading.Lock()  # the page reads what follows while the connection's thread writes it
+    self.log: recorder_lib.Episode | None = None  # the episode under way
+    self.ended: dict[int, recorder_lib.Episode] = {}  # ended episodes awaiting the page's label
+    self.latest: dict | None = None  # the latest observation (the page shows its images)
+    self.mode = self.default_mode
+    self.steering: dict | None = None  # the last steer request (the page shows and answers it)
+    self.trail: list[np.ndarray] = []  # the actions sent in the episode under way (the page draws them)
+    self.alive: Callable[[], bool] = lambda: True  # whether the robot is still connected
+    self.closed = False
 
   def infer(self, obs: dict) -> dict:
-    """The reply to one observation (see the module's docstring); RequestError for a bad request,
+    """The reply to one request (see the module's docstring); RequestError for a bad request,
     PolicyError for a chunk that must not be sent."""
-    x = policy_input(self.spec, obs)
-    scalar = lambda v: v.item() if isinstance(v, np.ndarray) and v.shape == () else v  # openpi packs 0-d arrays so
-    start = scalar(obs.get("episode_start", False))
+    if isinstance(obs, dict) and _scalar(obs.get("episode_end", False)) is True:
+      return self.end(obs)
+    observations = observations_of(self.spec, obs)
+    start = _scalar(obs.get("episode_start", False))
     if not isinstance(start, (bool, np.bool_)):
       raise RequestError(f"episode_start must be true or false, got {start!r}")
-    stamp = scalar(obs.get("timestamp", time.time()))
+    stamp = _scalar(obs.get("timestamp", time.time()))
     if not isinstance(stamp, (int, float, np.number)) or not np.isfinite(stamp):
       raise RequestError(f"timestamp must be a number of seconds, got {stamp!r}")
+    mode = _scalar(obs.get("mode", self.default_mode))
+    try:
+      mode = self.modes.check(mode)
+    except ValueError as e:
+      raise RequestError(str(e)) from None
+    dt = 1.0 / self.spec.control_hz
+    stamps = [float(stamp) - dt * (len(observations) - 1 - i) for i in range(len(observations))]
+    inputs = [_input(self.spec, o) for o in observations]
     if start or self.history is None:
-      self.episode, self.step = self.episode + 1, 0
-      self.history = agent_lib.initial_history(x, self.agent.policy.n_obs_steps)
+      history = agent_lib.initial_history(inputs[0], self.agent.policy.n_obs_steps)
     else:
-      self.history = agent_lib.push_history(self.history, x)
+      history = self.history
+    for x in inputs[1:] if (start or self.history is None) else inputs:
+      history = agent_lib.push_history(history, x)
+    if start or self.history is None:
+      log = recorder_lib.Episode(self.episode + 1, observations[-1], stamps[-1], keep=self.recorder is not None)
+    else:
+      log = self.log
+      try:
+        log.advance(observations, stamps)
+      except recorder_lib.LabelError as e:
+        raise RequestError(str(e)) from None
+    with self.lock:
+      if start or self.history is None:
+        self.episode, self.step, self.trail = self.episode + 1, 0, []
+      self.history, self.log, self.latest, self.mode = history, log, observations[-1], mode
     key = request_key(self.seed, self.episode, self.step)
     self.step += 1
-    chunk = chunk_fn(self.agent.policy)(self.agent, self.history, key)
-    actions = np.asarray(jax.device_get(self.agent.executed(chunk))[0], np.float32)
+    steering = None
+    if mode == "steer":
+      proposals, dim_of = jax.device_get(self.modes("steer", self.agent, history, key))
+      steering = dict(dims=list(self.modes.dims), proposals=np.asarray(proposals[0], np.float32).tolist(),
+                      dim_of=[int(d) for d in dim_of], chosen=None, timed_out=False,
+                      request=f"{self.episode}-{self.step - 1}")  # fmt: skip
+      with self.lock:
+        self.steering = steering
+      choice = self.chooser(self, steering) if self.chooser is not None else None
+      with self.lock:
+        steering.update(chosen=choice, timed_out=choice is None)
+      if choice is not None:
+        actions = np.asarray(proposals[0][choice], np.float32)
+    if mode != "steer" or steering["chosen"] is None:
+      actions = np.asarray(jax.device_get(self.modes("base" if mode == "steer" else mode, self.agent, history, key))[0],
+                           np.float32)  # fmt: skip
     self.check(actions)
-    dt = 1.0 / self.spec.control_hz
-    return {"actions": actions, "timestamps": float(stamp) + dt * np.arange(len(actions), dtype=np.float64)}
+    log.sent(actions, mode)
+    with self.lock:
+      self.trail.extend(actions)
+    reply = {"actions": actions, "timestamps": float(stamp) + dt * np.arange(len(actions), dtype=np.float64)}
+    if steering is not None:
+      reply["steering"] = {k: v for k, v in steering.items() if k != "request"}
+    return reply
+
+  def end(self, obs: dict) -> dict:
+    """`episode_end`: close the episode under way with the observations sent, and save it with its
+    label (or keep it for the page's)."""
+    if self.log is None:
+      raise RequestError("episode_end, but no episode is under way (send its observations with episode_start first)")
+    label, start_state = _scalar(obs.get("label")), _scalar(obs.get("start_state"))
+    if label is not None and label not in recorder_lib.LABELS:
+      raise RequestError(f"unknown label {label!r}; known: {', '.join(recorder_lib.LABELS)} (or none: the page labels it)")
+    try:
+      recorder_lib.check_start_state(start_state)
+    except recorder_lib.LabelError as e:
+      raise RequestError(str(e)) from None
+    has_obs = all(k in obs for k in self.spec.observations)
+    observations = observations_of(self.spec, obs) if has_obs else []
+    dt, stamp = 1.0 / self.spec.control_hz, _scalar(obs.get("timestamp", time.time()))
+    try:
+      self.log.advance(observations, [float(stamp) - dt * (len(observations) - 1 - i) for i in range(len(observations))])
+    except recorder_lib.LabelError as e:
+      raise RequestError(str(e)) from None
+    log = self.log
+    log.start_state = start_state
+    with self.lock:
+      self.log, self.history = None, None
+    if label is None:
+      with self.lock:
+        self.ended[log.number] = log
+      return {"recorded": dict(episode=log.number, label=None, written=False, awaiting_label=True)}
+    return {"recorded": dict(episode=log.number, **self.label(log, label, log.start_state))}
+
+  def label(self, log: recorder_lib.Episode, label, start_state=None) -> dict:
+    if self.recorder is None:
+      if label not in recorder_lib.LABELS:
+        raise RequestError(f"unknown label {label!r}; known: {', '.join(recorder_lib.LABELS)}")
+      return dict(label=label, written=False, reason="the server is not recording (serve --record=DIR)")
+    try:
+      return self.recorder.save(log, label, start_state)
+    except recorder_lib.LabelError as e:
+      raise RequestError(str(e)) from None
+
+  def label_ended(self, episode: int, label, start_state=None) -> dict:
+    """The page's label for an ended episode awaiting one."""
+    with self.lock:
+      log = self.ended.get(episode)
+    if log is None:
+      raise RequestError(
+        f"connection {self.name} has no ended episode {episode} awaiting a label; those awaiting: {sorted(self.ended)}"
+      )
+    out = self.label(log, label, log.start_state if start_state is None else start_state)
+    with self.lock:
+      self.ended.pop(episode, None)
+    return out
 
   def check(self, actions: np.ndarray) -> None:
     if not np.all(np.isfinite(actions)):
@@ -128,15 +280,19 @@ class Session:
         )
 
 
-def warm_up(agent: Agent, spec: PolicySpec) -> None:
-  """Compile the chunk of one observation history (before a server listens)."""
+def zero_history(agent: Agent, spec: PolicySpec):
   zeros = {k: np.zeros(v["shape"], np.uint8 if v.get("image") else np.float32) for k, v in spec.observations.items()}
-  history = agent_lib.initial_history(policy_input(spec, zeros), agent.policy.n_obs_steps)
-  jax.block_until_ready(chunk_fn(agent.policy)(agent, history, request_key(0, 0, 0)))
+  return agent_lib.initial_history(_input(spec, zeros), agent.policy.n_obs_steps)
 
 
-def metadata(spec: PolicySpec, agent: Agent) -> dict:
-  """The frame sent on connect: the spec and the chunk's timing."""
+def warm_up(agent: Agent, spec: PolicySpec, modes: Modes | None = None) -> None:
+  """Compile every mode's chunk for one observation history (before a server listens)."""
+  modes = modes if modes is not None else Modes(agent, spec)
+  modes.warm_up(agent, zero_history(agent, spec), request_key(0, 0, 0))
+
+
+def metadata(spec: PolicySpec, agent: Agent, modes: Modes | None = None, default_mode: str = "base") -> dict:
+  """The frame sent on connect: the spec, the chunk's timing and the modes."""
   p = agent.policy
   return dict(
     server="soe_jax",
@@ -146,6 +302,9 @@ def metadata(spec: PolicySpec, agent: Agent) -> dict:
     horizon=p.horizon,
     action_horizon=p.n_action_steps,
     control_hz=spec.control_hz,
-    request_keys=list(spec.observations) + ["timestamp (optional)", "episode_start (optional)"],
-    reply_keys=["actions", "timestamps", "server_timing"],
+    modes=(modes if modes is not None else Modes(agent, spec)).describe(),
+    default_mode=default_mode,
+    request_keys=list(spec.observations) + [
+      "timestamp (optional)", "episode_start (optional)", "mode (optional)", "episode_end + label (ends an episode)"],
+    reply_keys=["actions", "timestamps", "server_timing", "steering (steer mode)"],
   )

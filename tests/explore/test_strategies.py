@@ -146,12 +146,15 @@ def test_dp_and_sime_use_the_base_path():
   assert float(jnp.max(jnp.abs(big - base))) > 1e-3
 
 
+POSITIONS = lambda a: a[..., None, :3]  # one arm, its position first
+
+
 def test_steering_candidates_vary_one_dimension_and_are_distinct():
   policy = _policy()
   agent = _agent(policy)
   obs = jax.random.uniform(jax.random.PRNGKey(3), (3, 2, OBS_DIM), minval=0, maxval=2)
-  cands, dim_of = steer.candidates(
-    agent, obs, jax.random.PRNGKey(0), (2, 0), alpha=2.0, num_proposals=12, num_choices=4
+  cands, dim_of = steering.candidates(
+    agent, obs, jax.random.PRNGKey(0), (2, 0), alpha=2.0, num_proposals=12, num_choices=4, positions=POSITIONS
   )
   assert cands.shape == (3, 8, policy.n_action_steps, ACTION_DIM)
   np.testing.assert_array_equal(dim_of, [2, 2, 2, 2, 0, 0, 0, 0])
@@ -179,7 +182,7 @@ def test_steer_picks_the_chosen_candidate_at_every_kth_decision():
   state = lambda step: type("S", (), {"info": {"steps": jnp.full(2, step)}})()
   chunk, aux = steering_strategy(agent, obs, state(0), key)
   _, key_steer, _ = jax.random.split(key, 3)
-  cands, _ = steer.candidates(agent, obs, key_steer, (1,), 2.0, 8, 3)
+  cands, _ = steering.candidates(agent, obs, key_steer, (1,), 2.0, 8, 3, POSITIONS)
   np.testing.assert_allclose(chunk, cands[:, -1], atol=1e-4)
   assert aux["steered"].all() and (aux["dim"] == 1).all()
   chunk, aux = steering_strategy(agent, obs, state(8), key)  # decision 1 of every 2: the base path

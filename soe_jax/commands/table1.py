@@ -1,0 +1,61 @@
+"""The paper's Table I from a robot's labelled episodes: per mode, success with its interval, Pass@k and
+the rollouts to the first success over the attempt groups, and jerk; and the success before and after
+a re-fit (`analysis/labelled.py`).
+
+  python -m soe_jax table1 RECORDED [--before=EVAL0 --after=EVAL1] [--k=5] [--spec=WORKDIR] [--out=FILE.json]
+
+RECORDED, EVAL0 and EVAL1 are LeRobotDatasets with `next.success` (what `serve --record` writes: the
+exploration episodes, and evaluations of the policy before and after `refit`, each in the base mode).
+Pass@k needs a `start_state` per episode (the attempt group a person gave when labelling); states with
+fewer than k tries are left out of it and counted. Jerk uses each arm's commanded position, laid out as
+the policy's spec says (--spec: a robot workdir or checkpoint with spec.json; default one arm, its
+first three numbers), at the dataset's frame rate.
+"""
+
+from __future__ import annotations
+
+from soe_jax.runtime import atomic, cli, provenance
+from soe_jax.runtime.errors import UserError
+
+USAGE = "python -m soe_jax table1 RECORDED [--before=EVAL0 --after=EVAL1] [--k=5] [--spec=DIR] [--out=FILE]"
+
+FLAGS = cli.Flags()
+FLAGS.string("before", None, "Labelled evaluation episodes of the policy before the re-fit.")
+FLAGS.string("after", None, "Labelled evaluation episodes of the re-fitted policy (with --before).")
+FLAGS.integer("k", 5, "Tries per start state for Pass@k and the rollouts.", lower_bound=1)
+FLAGS.string("spec", None, "A directory with the policy's spec.json (the action layout for jerk).")
+FLAGS.string("out", None, "Also write the table here (JSON, with the command and commit).")
+
+
+def _table1(argv: list[str]) -> None:
+  args = cli.positional(argv, "0+", USAGE)
+  if len(args) > 1:
+    raise UserError(f"one recorded dataset at a time; usage: {USAGE}")
+  recorded = args[0] if args else None
+  if (FLAGS.before is None) != (FLAGS.after is None):
+    raise UserError("--before and --after go together (two evaluations of the policy around a re-fit)")
+  if recorded is None and FLAGS.before is None:
+    raise UserError(f"nothing to tabulate; usage: {USAGE}")
+  from soe_jax.analysis import labelled
+  from soe_jax.data import lerobot
+  from soe_jax.data import spec as spec_lib
+
+  positions = None
+  if FLAGS.spec:
+    spec = spec_lib.load(FLAGS.spec)
+    if spec is None:
+      raise UserError(f"--spec: {FLAGS.spec} has no {spec_lib.SPEC_FILE}")
+    positions = spec.position_indices()
+  try:
+    read = lambda root: None if root is None else labelled.read(root, positions)
+    table = labelled.table(read(recorded), FLAGS.k, read(FLAGS.before), read(FLAGS.after))
+  except lerobot.DatasetError as e:
+    raise UserError(str(e)) from None
+  print(labelled.markdown(table))
+  if FLAGS.out:
+    atomic.write_json(FLAGS.out, dict(provenance.header(), **table))
+    print(f"-> {FLAGS.out}")
+
+
+def main(argv: list[str] | None = None) -> None:
+  cli.run(_table1, FLAGS, __doc__, argv)

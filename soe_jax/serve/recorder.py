@@ -1,0 +1,159 @@
+"""What the server saw and sent, written as a LeRobotDataset once a person labels it.
+
+An episode, as one connection's requests make it: the first observation (`episode_start`), then each
+request carries the observations taken since the previous one (each observation key with a leading
+axis of k, or one observation), one per action of the previous reply executed. A frame is an
+observation and the action executed from it, so request n's k observations close k frames of reply
+n-1's actions. `end` closes the last reply's frames with the observations sent with it.
+
+A labelled episode (success / failure; a discarded one is dropped) is saved losslessly as
+`<dir>/episodes/<n>.npz` (written whole, then renamed), and the LeRobotDataset `<dir>/lerobot` is
+written again from all of them (to a new directory, swapped in by rename): a crash leaves the last
+complete dataset. Per frame it holds the observations, the action sent (absolute), `next.success` on a
+successful episode's last frame, and the columns `mode` (index into `modes.MODES`), `robot_time` (the
+observation's timestamp) and `start_state` (the attempt group a person gave, -1 when none), which
+`refit.select=first_success` and `python -m soe_jax table1` group tries by.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+import shutil
+import tempfile
+import threading
+
+import numpy as np
+
+from soe_jax.data.spec import PolicySpec
+from soe_jax.serve.modes import MODES
+
+LABELS = ("success", "failure", "discard")
+
+
+class LabelError(ValueError):
+  """A label the recorder refuses (one line); nothing was written."""
+
+
+def check_start_state(start_state) -> int:
+  """The attempt group a person gave (-1 for none)."""
+  if start_state is None:
+    return -1
+  if isinstance(start_state, bool) or not isinstance(start_state, (int, np.integer)) or start_state < 0:
+    raise LabelError(f"start_state must be a whole number >= 0 (the attempt group), got {start_state!r}")
+  return int(start_state)
+
+
+class Episode:
+  """One connection's episode as the server saw it."""
+
+  def __init__(self, number: int, observation: dict, stamp: float, keep: bool = True):
+    self.number, self.keep = number, keep  # keep: hold the frames (a server that records)
+    self.frames: list[tuple[dict, np.ndarray, float, int]] = []  # (observation, action, robot time, mode)
+    self.current, self.current_time = observation, float(stamp)
+    self.pending = None  # (actions (Ta, A), mode index) of the last reply
+    self.modes: set[str] = set()
+    self.start_state = None  # the attempt group, when the robot names it at the end
+
+  def sent(self, actions: np.ndarray, mode: str) -> None:
+    self.pending = (np.asarray(actions, np.float32), MODES.index(mode))
+    self.modes.add(mode)
+
+  def advance(self, observations: list[dict], stamps: list[float]) -> None:
+    """Close frames with the k observations taken after each of the last reply's first k actions."""
+    if self.pending is None:
+      if observations:
+        raise LabelError("observations arrived with no reply before them")
+      return
+    actions, mode = self.pending
+    if len(observations) > len(actions):
+      raise LabelError(f"{len(observations)} observations since the last reply, which sent {len(actions)} actions")
+    for action, obs, stamp in zip(actions, observations, stamps):
+      if self.keep:
+        self.frames.append((self.current, action, self.current_time, mode))
+      self.current, self.current_time = obs, float(stamp)
+    self.pending = None
+
+  def arrays(self, spec: PolicySpec, success: bool, start_state: int) -> dict:
+    if not self.frames:
+      raise LabelError(f"episode {self.number} has no executed step (send the observations after its actions)")
+    t = len(self.frames)
+    obs = {k: np.stack([f[0][k] for f in self.frames]) for k in spec.observations}
+    return dict(
+      obs=obs,
+      actions=np.stack([f[1] for f in self.frames]),
+      success=bool(success),
+      columns=dict(
+        mode=np.asarray([f[3] for f in self.frames], np.int64),
+        robot_time=np.asarray([f[2] for f in self.frames], np.float64),
+        start_state=np.full(t, int(start_state), np.int64),
+      ),
+    )
+
+
+class Recorder:
+  """Labelled episodes of every connection of one server, saved under `directory`."""
+
+  def __init__(self, directory: str, spec: PolicySpec, task: str = "", codec: str = "h264"):
+    self.directory, self.spec, self.task, self.codec = os.path.abspath(directory), spec, task, codec
+    if bad := [k for k in spec.observations if not k.startswith("observation.")]:
+      raise LabelError(f"the policy's observations {bad} are not LeRobot features (observation.<name>): record "
+                       "a policy fitted with `fit` on a LeRobotDataset")  # fmt: skip
+    self.lock = threading.Lock()
+    os.makedirs(os.path.join(self.directory, "episodes"), exist_ok=True)
+    for stale in glob.glob(os.path.join(self.directory, "episodes", ".*.tmp*")):
+      os.remove(stale)  # a save cut midway: its episode was never labelled written
+    self.saved = len(self._episode_files())
+
+  @property
+  def dataset(self) -> str:
+    return os.path.join(self.directory, "lerobot")
+
+  def _episode_files(self) -> list[str]:
+    return sorted(glob.glob(os.path.join(self.directory, "episodes", "*.npz")))
+
+  def save(self, episode: Episode, label: str, start_state=None) -> dict:
+    """Write `episode` with `label` (LABELS) -> {"label", "written", "dataset_episode" (or None)}."""
+    if label not in LABELS:
+      raise LabelError(f"unknown label {label!r}; known: {', '.join(LABELS)}")
+    if label == "discard":
+      return dict(label=label, written=False, dataset_episode=None)
+    state = check_start_state(start_state)
+    arrays = episode.arrays(self.spec, label == "success", int(state))
+    with self.lock:
+      index = self.saved
+      path = os.path.join(self.directory, "episodes", f"{index:06d}.npz")
+      fd, tmp = tempfile.mkstemp(prefix=".episode.tmp", dir=os.path.dirname(path))
+      with os.fdopen(fd, "wb") as f:
+        np.savez_compressed(f, success=arrays["success"], actions=arrays["actions"],
+                            **{f"obs/{k}": v for k, v in arrays["obs"].items()},
+                            **{f"col/{k}": v for k, v in arrays["columns"].items()})  # fmt: skip
+        f.flush()
+        os.fsync(f.fileno())
+      os.replace(tmp, path)
+      self.saved = index + 1
+      self._write_dataset()
+    return dict(label=label, written=True, dataset_episode=index)
+
+  def _write_dataset(self) -> None:
+    from soe_jax.data import lerobot  # (pyarrow: the `robot` extra; only a recording server needs it)
+
+    episodes = []
+    for path in self._episode_files():
+      with np.load(path) as z:
+        episodes.append(dict(
+          obs={k[4:]: z[k] for k in z.files if k.startswith("obs/")},
+          actions=z["actions"], success=bool(z["success"]),
+          columns={k[4:]: z[k] for k in z.files if k.startswith("col/")}))  # fmt: skip
+    fresh = self.dataset + ".new"
+    shutil.rmtree(fresh, ignore_errors=True)
+    fps = self.spec.control_hz
+    video = [k for k in self.spec.image_keys]
+    lerobot.write_dataset(fresh, episodes, fps, robot_type="soe_jax-served", video_keys=video, codec=self.codec,
+                          task=self.task)  # fmt: skip
+    old = self.dataset + ".old"
+    shutil.rmtree(old, ignore_errors=True)
+    if os.path.exists(self.dataset):
+      os.rename(self.dataset, old)
+    os.rename(fresh, self.dataset)
+    shutil.rmtree(old, ignore_errors=True)
