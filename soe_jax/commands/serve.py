@@ -39,7 +39,8 @@ FLAGS.integer("max_message_mb", 16, "Largest frame accepted, in MiB.", lower_bou
 FLAGS.string("mode", "base", "The mode of requests that name none: base, soe, sime or steer.")
 FLAGS.string("record", None, "Write the labelled episodes under this directory (DIR/lerobot); none: not recording.")
 FLAGS.string("task", "", "The task's description, written with each recorded episode.")
-FLAGS.integer("page_port", 8001, "The page's port (0: any free one; -1: no page).", lower_bound=-1)
+FLAGS.integer("page_port", None, "The page's port (default --port + 1, any free one with --port=0; -1: no page).",
+              lower_bound=-1)
 FLAGS.float("steer_timeout", 30.0, "Seconds a steer request waits for a choice on the page.", lower_bound=0.0)
 FLAGS.float("alpha", 2.0, "soe's exploration scale.", lower_bound=0.0)
 FLAGS.float("sime_scale", None, "SIME's noise scale (default 0.01 for a low-dim policy, 0.5 for an image policy).")
@@ -85,14 +86,18 @@ def _serve(argv: list[str]) -> None:
                         FLAGS.max_message_mb << 20, modes, FLAGS.mode, rec, FLAGS.steer_timeout)  # fmt: skip
   print(f"serving on ws://{server.host}:{server.port} (action_horizon={loaded.policy.n_action_steps}, "
         f"{loaded.spec.control_hz:g} Hz, modes {', '.join(modes.available)}, default {FLAGS.mode})", flush=True)  # fmt: skip
-  if FLAGS.page_port >= 0:
-    httpd = page.serve(server, FLAGS.host, FLAGS.page_port)
+  page_port = FLAGS.page_port if FLAGS.page_port is not None else (FLAGS.port + 1 if FLAGS.port else 0)
+  if page_port >= 0:
+    httpd = page.serve(server, FLAGS.host, page_port)
     threading.Thread(target=httpd.serve_forever, daemon=True).start()
     print(f"page: http://{server.host}:{httpd.server_address[1]}/?token={token}", flush=True)
   print(f"token: {token}", flush=True)
   if rec is not None:
     print(f"recording labelled episodes to {rec.dataset} ({rec.saved} there already)", flush=True)
-  server.serve_forever()
+  try:
+    server.serve_forever()
+  finally:
+    server.shutdown()  # closes the robots' connections (their threads would keep the process alive)
 
 
 def main(argv: list[str] | None = None) -> None:
