@@ -8,11 +8,15 @@
 # 2. The relabelled arms (labels against states) from that invocation's dp and soe runs, exported beside.
 # 3. The fidelity study on the dp, soe and soe alpha=0 runs (beta 1e-3) and the beta=0 one.
 # Work directories outside the work tree (WORKDIR, default /work/runs-why); re-running resumes.
+# CONFIG (default configs/lift.py:cpu) and RESULTS (default results) may be set in the environment,
+# e.g. CONFIG=configs/lift.py:smoke RESULTS=/tmp/why for a quick check of the whole path.
 set -euo pipefail
 seed=${1:?the training seed}
 runs=${2:-/work/runs-why}
-results=results/why-own-successes
-python -m soe_jax campaign --config=configs/lift.py:cpu --config.seed="$seed" \
+config=${CONFIG:-configs/lift.py:cpu}
+out=${RESULTS:-results}
+results=$out/why-own-successes
+python -m soe_jax campaign --config="$config" --config.seed="$seed" \
   --methods=control,dp,soe,soe+alpha=0,dp+demo_fraction=0.5,soe+demo_fraction=0.5,dp+aligned=true,soe+aligned=true,soe+beta=0.0001,soe+beta=1e-05,soe+beta=0 \
   --workdir="$runs" --results="$results" --progress=false
 base="$runs/lift/seed$seed"
@@ -21,4 +25,4 @@ for args in "dp --labels=explore --alpha=0" "dp --labels=explore --alpha=2" "soe
   python -m soe_jax relabel "$base/$1" "${@:2}" --results="$results" --progress=false
 done
 python -m soe_jax fidelity "$base/dp" "$base/soe" "$base/soe-alpha0" "$base/soe-beta0" \
-  --out="results/fidelity/lift_seed$seed.json"
+  --out="$out/fidelity/lift_seed$seed.json"
