@@ -61,7 +61,9 @@ class Modes:
     self.snr_db = None if snr_db is None else [float(x) for x in snr_db]
     s, p = settings, agent.policy
     fns = {"base": lambda a, h, k: a.act(h, k)}
-    fns["sime"] = lambda a, h, k: a.act(h, k, sime.cond_fn(a.policy, a.normalizer, s.sime_scale, s.sime_tau1, s.sime_tau2))
+    fns["sime"] = lambda a, h, k: a.act(
+      h, k, sime.cond_fn(a.policy, a.normalizer, s.sime_scale, s.sime_tau1, s.sime_tau2)
+    )
     self.unavailable = {}
     if p.bypass:
       fns["soe"] = lambda a, h, k: a.executed(a.explore_chunk(h, k, s.alpha)[0])

@@ -5,7 +5,8 @@ browser, on its own port in the policy server's process (one store: the server's
   GET  /api/state           the connections: episode, step, mode, latest low-dim observation, the
                             latest steering request (proposals' end-effector paths per arm), the
                             ended episodes awaiting a label; the SNR of the latent dimensions
-  GET  /api/image?connection=c&key=k   the connection's latest camera image (PNG)
+  GET  /api/image?connection=c&key=k   the connection's latest camera image (PNG): the policy's
+                            cameras and any other `observation.images.*` the robot sends
   POST /api/choose {"connection", "request", "index"}      pick a waiting steering request's proposal
   POST /api/label  {"connection", "episode", "label", "start_state"?}   label an ended episode
 
@@ -60,6 +61,7 @@ label it <i>success</i>, <i>failure</i> or <i>discard</i> (discarded episodes ar
 const COLORS = ["#e41a1c", "#377eb8", "#4daf4a", "#984ea3", "#ff7f00", "#a65628", "#f781bf", "#999999"];
 const TOKEN = new URLSearchParams(location.search).get("token") || "";
 const HEAD = {"Authorization": "Api-Key " + TOKEN};
+const starts = {};  // start states typed, by connection-episode
 async function call(path, body) {
   const r = await fetch(path, body === undefined ? {headers: HEAD} :
     {method: "POST", headers: {...HEAD, "Content-Type": "application/json"}, body: JSON.stringify(body)});
@@ -67,8 +69,8 @@ async function call(path, body) {
   document.getElementById("error").textContent = r.ok ? "" : data.error;
   return r.ok ? data : null;
 }
-function plot(id, paths, trail, a, b, label) {  // paths: [[colour, [[x,y,z],...]]], axes a, b
-  const pts = paths.flatMap(p => p[1]).concat(trail);
+function plot(id, paths, trails, a, b, label) {  // paths: [[colour, [[x,y,z],...], id]]; trails: per arm; axes a, b
+  const pts = paths.flatMap(p => p[1]).concat(trails.flat());
   if (!pts.length) return `<svg class="plot" id="${id}" width="220" height="220"></svg>`;
   let lo = [Infinity, Infinity], hi = [-Infinity, -Infinity];
   pts.forEach(p => { [a, b].forEach((ax, i) => { lo[i] = Math.min(lo[i], p[ax]); hi[i] = Math.max(hi[i], p[ax]); }); });
@@ -76,7 +78,7 @@ function plot(id, paths, trail, a, b, label) {  // paths: [[colour, [[x,y,z],...
   const xy = p => [110 + (p[a] - mid[0]) / span * 200, 110 - (p[b] - mid[1]) / span * 200];
   const line = (ps, c, w, extra) => `<path ${extra || ""} d="${ps.map((p, i) => (i ? "L" : "M") + xy(p).map(v => v.toFixed(1)).join(" ")).join(" ")}" stroke="${c}" stroke-width="${w}" fill="none"/>`;
   let svg = `<text x="4" y="12" font-size="11">${label} (${(span * 100).toFixed(1)} cm across)</text>`;
-  if (trail.length) svg += line(trail, "#000", 1.5);
+  trails.forEach(t => { if (t.length) svg += line(t, "#000", 1.5, 'class="trail"'); });
   paths.forEach(([c, ps, pid]) => svg += line(ps, c, 3, `class="proposal-path" data-id="${pid}"`));
   return `<svg class="plot" id="${id}" width="220" height="220">${svg}</svg>`;
 }
@@ -86,7 +88,7 @@ function render(v) {
   document.getElementById("snr").innerHTML = (v.snr_db || []).map((s, i) =>
     `<tr><td>dim ${i}</td><td>${s.toFixed(1)} dB</td><td>${v.dims.includes(i) ? "offered" : ""}</td></tr>`).join("");
   document.getElementById("conns").innerHTML = v.connections.length ? v.connections.map(c => {
-    const st = c.steering, arms = c.trail.length;
+    const st = c.steering;
     let props = "", paths = [];
     if (st) {
       st.paths.forEach((arms_, i) => arms_.forEach(ps => paths.push([COLORS[i % COLORS.length], ps, i])));
@@ -94,20 +96,20 @@ function render(v) {
         style="border-color:${COLORS[i % COLORS.length]}">${i} (dim ${st.dim_of[i]})</button>`).join("") :
         `<span class="note">request ${st.request}: ${st.chosen === null ? "no choice (base path)" : "sent proposal " + st.chosen}</span>`;
     }
-    const trail = c.trail.flat ? c.trail.flat() : [];
     const labels = c.awaiting_label.map(e => `<div>episode ${e}: ` + ["success", "failure", "discard"].map(l =>
       `<button class="lab" data-conn="${c.name}" data-ep="${e}" data-label="${l}">${l}</button>`).join("") +
-      ` start state <input size="3" class="start" id="start-${c.name}-${e}"></div>`).join("");
+      ` start state <input size="3" class="start" id="start-${c.name}-${e}" value="${starts[c.name + "-" + e] || ""}"></div>`).join("");
     return `<div class="conn" id="conn-${c.name}"><div class="cams">${c.images.map(k =>
       `<img data-conn="${c.name}" data-key="${k}" alt="${k}">`).join("")}</div>
-      <div>${plot("top-" + c.name, paths, trail, 0, 1, "from above: x, y")}</div>
-      <div>${plot("side-" + c.name, paths, trail, 0, 2, "from the side: x, z")}</div>
+      <div>${plot("top-" + c.name, paths, c.trail, 0, 1, "from above: x, y")}</div>
+      <div>${plot("side-" + c.name, paths, c.trail, 0, 2, "from the side: x, z")}</div>
       <div><b>${c.name}</b> ${c.closed ? "(disconnected)" : ""}<br>episode <span class="episode">${c.episode}</span>,
       request ${c.step}, mode <span class="mode">${c.mode}</span><h3>Proposals</h3>${props || "none asked"}
       <h3>Label</h3>${labels || "<span class='note'>no ended episode awaits a label</span>"}</div></div>`;
   }).join("") : "waiting for a robot&hellip;";
   document.querySelectorAll("button.prop").forEach(b => b.onclick = () => call("/api/choose",
     {connection: b.dataset.conn, request: b.dataset.req, index: Number(b.dataset.i)}).then(refresh));
+  document.querySelectorAll("input.start").forEach(i => i.oninput = () => starts[i.id.slice(6)] = i.value);
   document.querySelectorAll("button.lab").forEach(b => b.onclick = () => {
     const s = document.getElementById(`start-${b.dataset.conn}-${b.dataset.ep}`).value.trim();
     const body = {connection: b.dataset.conn, episode: Number(b.dataset.ep), label: b.dataset.label};
@@ -119,7 +121,11 @@ function render(v) {
     if (r.ok) img.src = URL.createObjectURL(await r.blob());
   });
 }
-async function refresh() { const v = await call("/api/state"); if (v) render(v); }
+let shown = "";  // redrawn only when the state changed, so a start state being typed is not wiped
+async function refresh() {
+  const v = await call("/api/state");
+  if (v && JSON.stringify(v) !== shown) { shown = JSON.stringify(v); render(v); }
+}
 refresh(); setInterval(refresh, 1000);
 </script></body></html>
 """
@@ -135,10 +141,10 @@ def state(server: PolicyServer) -> dict:
   out = []
   for name, s in list(server.sessions.items()):
     with s.lock:
-      latest, steering, trail = s.latest, s.steering, list(s.trail)
+      latest, steering, trail, cameras = s.latest, s.steering, list(s.trail), sorted(s.cameras)
       view = dict(name=name, episode=s.episode, step=s.step, mode=s.mode, closed=s.closed,
                   awaiting_label=sorted(s.ended))  # fmt: skip
-    view["images"] = list(server.spec.image_keys) if latest is not None else []
+    view["images"] = cameras
     view["lowdim"] = {k: np.asarray(latest[k]).round(5).tolist() for k in server.spec.lowdim_keys} if latest else {}
     view["trail"] = _positions(server.spec, np.asarray(trail)) if trail else []
     if steering is not None:
@@ -165,14 +171,13 @@ def _image_png(server: PolicyServer, query: dict) -> bytes:
   s = server.sessions.get(name)
   if s is None:
     raise PageError(f"no connection {name!r}; connected: {sorted(server.sessions)}")
-  if key not in server.spec.image_keys:
-    raise PageError(f"no camera {key!r}; the cameras: {list(server.spec.image_keys)}")
   with s.lock:
-    latest = s.latest
-  if latest is None:
-    raise PageError(f"connection {name} has sent no observation yet")
+    image = s.cameras.get(key)
+    known = sorted(s.cameras)
+  if image is None:
+    raise PageError(f"connection {name} has sent no camera {key!r}; its cameras: {known}")
   buf = io.BytesIO()
-  Image.fromarray(np.asarray(latest[key], np.uint8)).save(buf, format="PNG")
+  Image.fromarray(np.asarray(image, np.uint8)).save(buf, format="PNG")
   return buf.getvalue()
 
 

@@ -107,8 +107,11 @@ class PolicyServer:
         self._cond.wait(min(left, 0.1))
       choice = self._waiting.pop(key)
       if choice is None:
-        self._gone[key] = "the robot disconnected" if not session.alive() else (
-          f"it timed out after {self.steer_timeout:g} s and the robot went on with the base path")
+        self._gone[key] = (
+          "the robot disconnected"
+          if not session.alive()
+          else (f"it timed out after {self.steer_timeout:g} s and the robot went on with the base path")
+        )
     return choice
 
   def choose(self, connection: str, request: str, index) -> None:

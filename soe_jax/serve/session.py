@@ -108,6 +108,18 @@ def observations_of(spec: PolicySpec, obs: dict) -> list[dict]:
   return [{key: v[i] for key, v in arrays.items()} for i in range(k)]
 
 
+def extra_cameras(spec: PolicySpec, obs: dict) -> dict:
+  """Camera images a request carries beyond the policy's (`observation.images.*`, uint8 (H, W, 3) or a
+  stack of them; the latest), for a person to watch on the page even when the policy reads none."""
+  out = {}
+  for k, v in obs.items():
+    if isinstance(k, str) and k.startswith("observation.images.") and k not in spec.observations:
+      v = np.asarray(v) if isinstance(v, np.ndarray) else None
+      if v is not None and v.dtype == np.uint8 and v.ndim in (3, 4) and v.shape[-1] == 3:
+        out[k] = v[-1] if v.ndim == 4 else v
+  return out
+
+
 def policy_input(spec: PolicySpec, obs: dict):
   """A raw observation dict -> its latest observation as the policy reads it (batch of 1): the low-dim
   vector (1, D) of the spec's keys in order, with {"lowdim", "images"} for an image policy."""
@@ -141,7 +153,8 @@ class Session:
     self.lock = threading.Lock()  # the page reads what follows while the connection's thread writes it
     self.log: recorder_lib.Episode | None = None  # the episode under way
     self.ended: dict[int, recorder_lib.Episode] = {}  # ended episodes awaiting the page's label
-    self.latest: dict | None = None  # the latest observation (the page shows its images)
+    self.latest: dict | None = None  # the latest observation
+    self.cameras: dict[str, np.ndarray] = {}  # the latest camera images, the policy's and others (the page's)
     self.mode = self.default_mode
     self.steering: dict | None = None  # the last steer request (the page shows and answers it)
     self.trail: list[np.ndarray] = []  # the actions sent in the episode under way (the page draws them)
@@ -186,6 +199,8 @@ class Session:
       if start or self.history is None:
         self.episode, self.step, self.trail = self.episode + 1, 0, []
       self.history, self.log, self.latest, self.mode = history, log, observations[-1], mode
+      self.cameras = {k: observations[-1][k] for k in self.spec.image_keys}
+      self.cameras.update(extra_cameras(self.spec, obs))
     key = request_key(self.seed, self.episode, self.step)
     self.step += 1
     steering = None
@@ -220,7 +235,9 @@ class Session:
       raise RequestError("episode_end, but no episode is under way (send its observations with episode_start first)")
     label, start_state = _scalar(obs.get("label")), _scalar(obs.get("start_state"))
     if label is not None and label not in recorder_lib.LABELS:
-      raise RequestError(f"unknown label {label!r}; known: {', '.join(recorder_lib.LABELS)} (or none: the page labels it)")
+      raise RequestError(
+        f"unknown label {label!r}; known: {', '.join(recorder_lib.LABELS)} (or none: the page labels it)"
+      )
     try:
       recorder_lib.check_start_state(start_state)
     except recorder_lib.LabelError as e:
@@ -229,7 +246,9 @@ class Session:
     observations = observations_of(self.spec, obs) if has_obs else []
     dt, stamp = 1.0 / self.spec.control_hz, _scalar(obs.get("timestamp", time.time()))
     try:
-      self.log.advance(observations, [float(stamp) - dt * (len(observations) - 1 - i) for i in range(len(observations))])
+      self.log.advance(
+        observations, [float(stamp) - dt * (len(observations) - 1 - i) for i in range(len(observations))]
+      )
     except recorder_lib.LabelError as e:
       raise RequestError(str(e)) from None
     log = self.log
@@ -304,7 +323,7 @@ def metadata(spec: PolicySpec, agent: Agent, modes: Modes | None = None, default
     control_hz=spec.control_hz,
     modes=(modes if modes is not None else Modes(agent, spec)).describe(),
     default_mode=default_mode,
-    request_keys=list(spec.observations) + [
-      "timestamp (optional)", "episode_start (optional)", "mode (optional)", "episode_end + label (ends an episode)"],
+    request_keys=list(spec.observations)
+    + ["timestamp (optional)", "episode_start (optional)", "mode (optional)", "episode_end + label (ends an episode)"],
     reply_keys=["actions", "timestamps", "server_timing", "steering (steer mode)"],
   )

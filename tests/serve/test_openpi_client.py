@@ -13,6 +13,7 @@ np.bool_, `timestamp` as np.float64), other keys as they are (a `prompt` string,
 """
 
 import json
+import os
 import subprocess
 
 import numpy as np
@@ -107,3 +108,66 @@ def test_openpi_client_gets_the_in_process_chunks_step_by_step():
   for refused in out["refused"]:
     assert refused is not None and refused["type"] == "websockets.exceptions.InvalidStatus", refused
     assert refused["status"] == 401 and "HTTP 401" in refused["message"]
+
+
+# The robot's helper (soe_jax/serve/client.py, loaded from its file) over openpi-client: a toy robot whose state
+# moves towards each commanded position; three episodes in SOE mode labelled success, discard and failure.
+HELPER = """
+import importlib.util, json, sys
+import numpy as np
+
+args = json.load(sys.stdin)
+spec = importlib.util.spec_from_file_location("helper", args["helper"])
+helper = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(helper)
+runner = helper.EpisodeRunner("127.0.0.1", args["port"], api_key=args["token"])
+rng = np.random.default_rng(0)
+episodes = []
+for i, label in enumerate(["success", "discard", "failure"]):
+  robot = {"x": rng.uniform(-0.1, 0.1, 7).astype(np.float32)}
+  seen, sent = [], []
+  def observe():
+    seen.append(robot["x"].tolist())
+    return {"observation.state": robot["x"].copy()}
+  def act(a):
+    sent.append(np.asarray(a).tolist())
+    robot["x"] = (robot["x"] + 0.5 * np.pad(np.asarray(a[:3]) - robot["x"][:3], (0, 4))).astype(np.float32)
+  out = runner.run_episode(observe, act, mode="soe", max_steps=11, label=lambda: label, start_state=i)
+  episodes.append(dict(recorded=out, seen=seen, sent=sent))
+print(json.dumps(dict(numpy=np.__version__, episodes=episodes, modules=sorted(m for m in sys.modules if "soe_jax" in m))))
+"""
+
+
+@pytest.mark.slow
+def test_the_robot_helper_runs_in_the_openpi_client_environment(tmp_path):
+  import soe_jax.serve
+  from soe_jax.data import lerobot
+  from soe_jax.serve import modes as modes_lib
+  from soe_jax.serve import recorder
+
+  python = venvs.python("openpi-client", PACKAGES, PROBE)
+  spec = PolicySpec.from_dict(dict(SPEC, observations={"observation.state": SPEC["observations"]["state"]}))
+  agent = _agent(spec)
+  rec = recorder.Recorder(str(tmp_path / "rec"), spec)
+  modes = modes_lib.Modes(agent, spec)
+  server = PolicyServer(agent, spec, TOKEN, port=0, modes=modes, recorder=rec).start()
+  helper = os.path.join(os.path.dirname(soe_jax.serve.__file__), "client.py")
+  try:
+    args = json.dumps(dict(port=server.port, token=TOKEN, helper=helper))
+    r = subprocess.run([python, "-c", HELPER], input=args, capture_output=True, text=True, timeout=180)
+  finally:
+    server.shutdown()
+  assert r.returncode == 0, r.stderr[-3000:]
+  out = json.loads(r.stdout.strip().splitlines()[-1])
+  assert out["numpy"].startswith("1.") and out["modules"] == []  # numpy < 2, nothing of soe_jax
+  written = [e for e in out["episodes"] if e["recorded"]["written"]]
+  assert [e["recorded"]["label"] for e in out["episodes"]] == ["success", "discard", "failure"] and len(written) == 2
+  _, eps = lerobot.read_dataset(rec.dataset)
+  for ep, sent in zip(eps, written):
+    np.testing.assert_allclose(ep["actions"], np.asarray(sent["sent"], np.float32))  # every executed step
+    np.testing.assert_allclose(ep["obs"]["observation.state"], np.asarray(sent["seen"][:-1], np.float32))
+    assert (ep["columns"]["mode"] == modes_lib.MODES.index("soe")).all()
+  assert [ep["success"] for ep in eps] == [True, False] and [int(ep["columns"]["start_state"][0]) for ep in eps] == [
+    0,
+    2,
+  ]

@@ -93,7 +93,10 @@ def test_a_bad_request_gets_one_error_frame_and_others_are_served_on(served):
     good.recv()
     for bad, message in [
       ({"nothing": np.zeros(3)}, r"bad request: missing observation keys \['state'\]"),
-      ({"state": np.zeros(5, np.float32)}, r"observation 'state' must be numbers of shape \[7\] \(or k x that\), got float32 \[5\]"),
+      (
+        {"state": np.zeros(5, np.float32)},
+        r"observation 'state' must be numbers of shape \[7\] \(or k x that\), got float32 \[5\]",
+      ),
       ({"state": np.full(7, np.nan, np.float32)}, "is not finite"),
     ]:
       with _connect(server) as ws:
