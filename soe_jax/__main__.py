@@ -17,6 +17,7 @@ COMMANDS = {
   "results": "committed records under results/ -> tables; --docs regenerates the documents' tables",
   "kept": "what the kept episodes of runs look like (lengths, spread, states), as a record",
   "action_range": "round 0 on the workspace box against the demonstrations' range, by distance outside it",
+  "round0": "a campaign arm's round 0 as a record for results/ (tabled paired with the folder's first)",
   "fidelity": "how faithful the exploration path is to the base path at the decisions runs recorded",
   "relabel": "a run's explored states with another path's actions, re-fitted as a new arm",
   "video": "a run's stored episodes drawn to MP4",

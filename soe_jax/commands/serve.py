@@ -39,8 +39,9 @@ FLAGS.integer("max_message_mb", 16, "Largest frame accepted, in MiB.", lower_bou
 FLAGS.string("mode", "base", "The mode of requests that name none: base, soe, sime or steer.")
 FLAGS.string("record", None, "Write the labelled episodes under this directory (DIR/lerobot); none: not recording.")
 FLAGS.string("task", "", "The task's description, written with each recorded episode.")
-FLAGS.integer("page_port", None, "The page's port (default --port + 1, any free one with --port=0; -1: no page).",
-              lower_bound=-1)
+FLAGS.integer(
+  "page_port", None, "The page's port (default --port + 1, any free one with --port=0; -1: no page).", lower_bound=-1
+)
 FLAGS.float("steer_timeout", 30.0, "Seconds a steer request waits for a choice on the page.", lower_bound=0.0)
 FLAGS.float("alpha", 2.0, "soe's exploration scale.", lower_bound=0.0)
 FLAGS.float("sime_scale", None, "SIME's noise scale (default 0.01 for a low-dim policy, 0.5 for an image policy).")

@@ -28,7 +28,10 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
   `length_cap=X` (`rounds.length_cap`: only successes no longer than X times the demonstrations' mean
   length), `alpha=X` and `hold=N` (the strategy's exploration scale; `soe`'s decisions per draw of
   its latent noise), `beta=X` (the bypass's KL weight `policy.bypass.beta`, the KL ablation: the
-  arm fits a round 0 of its own);
+  arm fits a round 0 of its own), `demo_fraction=X` and `aligned=true` (the re-fit's sampling);
+- with any method, the control too, each with a round 0 of its own: `range=demonstrations`
+  (`policy.action_range`) and `frame=chunk_relative` (`policy.action_frame`, relative actions, which
+  need `range=demonstrations`);
 - `head=NAME` (diffusion_unet, flow_unet, mlp);
 - `image`: the paper's simulation observations, the agent-view and in-hand cameras' 84 x 84 images
   beside the robot's own low-dim state, without the simulator's object vector (`env.obs_mode`,

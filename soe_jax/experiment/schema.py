@@ -14,7 +14,7 @@ NOT_SETTINGS = ("seed", "rounds.round0_dir")
 # What a method's run and its control may differ in: the arm itself (how it explores, what it keeps).
 # (The action range changes round 0 too; its arms pair with the control of the default range.)
 ARM = ("method", "explore.", "rounds.new_data", "rounds.select", "rounds.length_cap", "policy.action_range",
-       "rounds.demo_fraction", "rounds.aligned_windows", "policy.bypass.beta")  # fmt: skip
+       "rounds.demo_fraction", "rounds.aligned_windows", "policy.bypass.beta", "policy.action_frame")  # fmt: skip
 # Arm fields that refit round 0 but leave its base path as it is (the bypass's loss never reaches the
 # encoder or the head): an arm differing from its control there pairs with it only where their round-0
 # evaluations agree state by state.
@@ -104,6 +104,7 @@ VARIANTS = {
   "demo_fraction": ("rounds.demo_fraction", "demos"),  # the re-fit's share of demonstration windows
   "aligned": ("rounds.aligned_windows", "aligned"),  # re-fit windows at decisions only
   "range": ("policy.action_range", "range_"),  # (round 0 too; any method, the control too)
+  "frame": ("policy.action_frame", "frame_"),  # (round 0 too; any method, the control too)
 }
 # Variants that go with any method, the control too (the others change how a method explores).
-ANY_METHOD_VARIANTS = ("range",)
+ANY_METHOD_VARIANTS = ("range", "frame")

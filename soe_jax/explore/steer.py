@@ -75,7 +75,9 @@ class SoeSteer(Strategy):
 
   def candidates(self, agent, obs_history, key, dims: tuple[int, ...]):
     positions = lambda a: observations.action_positions(a, self.num_robots)
-    return steering.candidates(agent, obs_history, key, dims, self.alpha, self.num_proposals, self.num_choices, positions)
+    return steering.candidates(
+      agent, obs_history, key, dims, self.alpha, self.num_proposals, self.num_choices, positions
+    )
 
   def __call__(self, agent, obs_history, env_state, key):
     b = agent_lib.batch_size(obs_history)

@@ -54,13 +54,20 @@ class Episode:
     self.pending = None  # (actions (Ta, A), mode index) of the last reply
     self.modes: set[str] = set()
     self.start_state = None  # the attempt group, when the robot names it at the end
+    self.gaps: str | None = None  # why the frames are not every step's, if they are not
 
   def sent(self, actions: np.ndarray, mode: str) -> None:
     self.pending = (np.asarray(actions, np.float32), MODES.index(mode))
     self.modes.add(mode)
 
-  def advance(self, observations: list[dict], stamps: list[float]) -> None:
-    """Close frames with the k observations taken after each of the last reply's first k actions."""
+  def advance(self, observations: list[dict], stamps: list[float], hz: float | None = None) -> None:
+    """Close frames with the k observations taken after each of the last reply's first k actions. With
+    the control rate `hz`: when the time since the last observation spans more than twice k steps
+    (and one), the robot ran actions it sent no observation for (a client that sends one observation
+    per chunk), and the episode has gaps: it is refused when labelled, not written wrong."""
+    if observations and hz and (stamps[-1] - self.current_time) * hz > 2 * len(observations) + 1:
+      self.gaps = self.gaps or (f"{(stamps[-1] - self.current_time) * hz:.0f} steps passed with "
+                                f"{len(observations)} observation(s) sent")  # fmt: skip
     if self.pending is None:
       if observations:
         raise LabelError("observations arrived with no reply before them")
@@ -75,6 +82,9 @@ class Episode:
     self.pending = None
 
   def arrays(self, spec: PolicySpec, success: bool, start_state: int) -> dict:
+    if self.gaps:
+      raise LabelError(f"episode {self.number} was not written: it has gaps ({self.gaps}); send the observations "
+                       "taken after each executed action (soe_jax/serve/client.py does)")  # fmt: skip
     if not self.frames:
       raise LabelError(f"episode {self.number} has no executed step (send the observations after its actions)")
     t = len(self.frames)
@@ -118,6 +128,9 @@ class Recorder:
       raise LabelError(f"unknown label {label!r}; known: {', '.join(LABELS)}")
     if label == "discard":
       return dict(label=label, written=False, dataset_episode=None)
+    if episode.gaps:
+      return dict(label=label, written=False, dataset_episode=None,
+                  reason=f"it has gaps ({episode.gaps}): send the observations taken after each executed action")  # fmt: skip
     state = check_start_state(start_state)
     arrays = episode.arrays(self.spec, label == "success", int(state))
     with self.lock:

@@ -192,7 +192,7 @@ class Session:
     else:
       log = self.log
       try:
-        log.advance(observations, stamps)
+        log.advance(observations, stamps, self.spec.control_hz)
       except recorder_lib.LabelError as e:
         raise RequestError(str(e)) from None
     with self.lock:

@@ -21,7 +21,7 @@ def test_method_presets_choose_the_strategy():
     lift_config.get_config("soe,dp")
   with pytest.raises(
     ValueError,
-    match="known presets: smoke, cpu, head, image, expert_data, select, length_cap, alpha, hold, beta, demo_fraction, aligned, range, dp,",
+    match="known presets: smoke, cpu, head, image, expert_data, select, length_cap, alpha, hold, beta, demo_fraction, aligned, range, frame, dp,",
   ):
     lift_config.get_config("fast")
   with pytest.raises(ValueError, match="expert_data goes with an exploring method"):
@@ -48,6 +48,12 @@ def test_variant_presets_set_and_name_their_field():
     "demonstrations",
     "workspace",
   )
+  rel = lift_config.get_config("control,range=demonstrations,frame=chunk_relative")  # relative actions: an arm
+  assert (rel.method, rel.policy.action_frame) == (
+    "control-range_demonstrations-frame_chunk_relative",
+    "chunk_relative",
+  )
+  assert rundir.round0_key(rel) != rundir.round0_key(old)  # with a round 0 of its own
   # A config saved before the field (read as `demonstrations`) keeps its round 0; the default has its own.
   saved = rundir.plain(old)
   del saved["policy"]["action_range"]

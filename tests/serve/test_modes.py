@@ -124,3 +124,18 @@ def test_labelled_episodes_are_written_frame_by_frame_and_discarded_ones_not(ser
   assert base["pass_at_k"] == 1.0 and base["rollouts"] == 1
   ba = labelled.before_after(labelled.read(rec.dataset)["episodes"][1:], labelled.read(rec.dataset)["episodes"][:1])
   assert ba["before"]["rate"] == 0.5 and ba["after"]["rate"] == 1.0 and ba["paired"]["up"] == 1
+
+
+def test_an_episode_with_unobserved_steps_is_not_written(served, tmp_path):
+  """A client that sends one observation per chunk (openpi's plain ActionChunkBroker) while the robot runs the
+  whole chunk: the timestamps say 8 steps passed with one observation, so the episode is not written wrong."""
+  agent, spec, modes = served
+  rec = recorder_lib.Recorder(str(tmp_path / "rec"), spec)
+  s = session.Session(agent, spec, modes=modes, recorder=rec)
+  rng = np.random.default_rng(4)
+  ta = agent.policy.n_action_steps
+  s.infer(dict(_obs(rng), episode_start=True, timestamp=100.0))
+  s.infer(dict(_obs(rng), timestamp=100.0 + ta / 10))
+  out = s.infer(dict(_obs(rng, 1), episode_end=True, label="success", timestamp=100.0 + 2 * ta / 10))["recorded"]
+  assert not out["written"] and "gaps (8 steps passed with 1 observation(s) sent)" in out["reason"]
+  assert rec.saved == 0 and not (tmp_path / "rec" / "lerobot").exists()
