@@ -58,7 +58,8 @@ label it <i>success</i>, <i>failure</i> or <i>discard</i> (discarded episodes ar
 <div id="error"></div><div id="conns">waiting for a robot&hellip;</div>
 <h3>Latent dimensions (SNR over the fit's data)</h3><table class="snr" id="snr"></table>
 <script>
-const COLORS = ["#e41a1c", "#377eb8", "#4daf4a", "#984ea3", "#ff7f00", "#a65628", "#f781bf", "#999999"];
+const COLORS = ["#e41a1c", "#377eb8", "#4daf4a", "#984ea3", "#ff7f00", "#a65628", "#f781bf", "#999999",
+                "#1b9e77", "#d95f02", "#7570b3", "#66a61e"];
 const TOKEN = new URLSearchParams(location.search).get("token") || "";
 const HEAD = {"Authorization": "Api-Key " + TOKEN};
 const starts = {};  // start states typed, by connection-episode

@@ -181,13 +181,11 @@ class Session:
     dt = 1.0 / self.spec.control_hz
     stamps = [float(stamp) - dt * (len(observations) - 1 - i) for i in range(len(observations))]
     inputs = [_input(self.spec, o) for o in observations]
-    if start or self.history is None:
-      history = agent_lib.initial_history(inputs[0], self.agent.policy.n_obs_steps)
-    else:
-      history = self.history
-    for x in inputs[1:] if (start or self.history is None) else inputs:
+    new = start or self.history is None
+    history = agent_lib.initial_history(inputs[0], self.agent.policy.n_obs_steps) if new else self.history
+    for x in inputs[1:] if new else inputs:
       history = agent_lib.push_history(history, x)
-    if start or self.history is None:
+    if new:
       log = recorder_lib.Episode(self.episode + 1, observations[-1], stamps[-1], keep=self.recorder is not None)
     else:
       log = self.log
@@ -196,14 +194,13 @@ class Session:
       except recorder_lib.LabelError as e:
         raise RequestError(str(e)) from None
     with self.lock:
-      if start or self.history is None:
+      if new:
         self.episode, self.step, self.trail = self.episode + 1, 0, []
       self.history, self.log, self.latest, self.mode = history, log, observations[-1], mode
-      self.cameras = {k: observations[-1][k] for k in self.spec.image_keys}
-      self.cameras.update(extra_cameras(self.spec, obs))
+      self.cameras = {k: observations[-1][k] for k in self.spec.image_keys} | extra_cameras(self.spec, obs)
     key = request_key(self.seed, self.episode, self.step)
     self.step += 1
-    steering = None
+    steering, actions = None, None
     if mode == "steer":
       proposals, dim_of = jax.device_get(self.modes("steer", self.agent, history, key))
       steering = dict(dims=list(self.modes.dims), proposals=np.asarray(proposals[0], np.float32).tolist(),
@@ -216,9 +213,9 @@ class Session:
         steering.update(chosen=choice, timed_out=choice is None)
       if choice is not None:
         actions = np.asarray(proposals[0][choice], np.float32)
-    if mode != "steer" or steering["chosen"] is None:
-      actions = np.asarray(jax.device_get(self.modes("base" if mode == "steer" else mode, self.agent, history, key))[0],
-                           np.float32)  # fmt: skip
+    if actions is None:  # (a steer request nobody answered: the base path, for the same key)
+      path = "base" if mode == "steer" else mode
+      actions = np.asarray(jax.device_get(self.modes(path, self.agent, history, key))[0], np.float32)
     self.check(actions)
     log.sent(actions, mode)
     with self.lock:
