@@ -25,8 +25,8 @@ def main(argv):
 
   s = session.SteeringSession(FLAGS.workdir, FLAGS.round, FLAGS.seed)
   s.warm()
-  httpd = server.serve(s, "127.0.0.1", 0)
-  url = f"http://127.0.0.1:{httpd.server_address[1]}/"
+  httpd = server.serve(s, "127.0.0.1", 0, "screenshot")
+  url = f"http://127.0.0.1:{httpd.server_address[1]}/?token=screenshot"
   failed = []
 
   def shoot():  # the browser on a thread of its own: the server stays on this one

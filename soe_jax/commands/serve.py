@@ -6,8 +6,8 @@
 Compiles every mode (`serve/modes.py`), then listens; the first lines printed are the address, the
 page's address and the token every client must send (openpi-client: `WebsocketClientPolicy(host, port, api_key=TOKEN)`, wrapped in
 `ActionChunkBroker(policy, action_horizon=Ta)` with the Ta printed). The token is random per start
-unless the environment variable SOE_JAX_SERVE_TOKEN gives one. Bound to 127.0.0.1 unless --host says
-otherwise (then with a warning: anyone on that network who has the token can drive the robot).
+unless the environment variable SOE_JAX_SERVE_TOKEN gives one. Bound to 127.0.0.1; another --host needs
+--remote and prints a warning (anyone on that network who has the token can drive the robot).
 Each request may name its mode (`mode` in the observation dict; --mode is the default). With --record,
 episodes a person labels (from the robot's helper, `soe_jax/serve/client.py`, or on the page) are written
 as a LeRobotDataset under DIR/lerobot (`serve/recorder.py`), which `refit --episodes=DIR/lerobot` takes.
@@ -17,19 +17,15 @@ ended episodes to label. Ctrl-C stops it.
 
 from __future__ import annotations
 
-import os
-import secrets
 import threading
 
-from soe_jax.runtime import cli
+from soe_jax.runtime import access, cli
 from soe_jax.runtime.errors import UserError
-
-TOKEN_VARIABLE = "SOE_JAX_SERVE_TOKEN"
-LOOPBACK = ("127.0.0.1", "localhost", "::1")
 
 FLAGS = cli.Flags()
 FLAGS.string("checkpoint", None, "A checkpoint directory (a run's round<r>/ckpt, or what `fit` wrote).")
-FLAGS.string("host", "127.0.0.1", "Address to bind (other than loopback: reachable from the network).")
+FLAGS.string("host", "127.0.0.1", "Address to bind (other than loopback: reachable from the network; needs --remote).")
+FLAGS.boolean("remote", False, "Allow --host to be an address other than loopback.")
 FLAGS.integer("port", 8000, "Port (0: any free one).", lower_bound=0)
 FLAGS.integer(
   "seed", 0, "Sampling seed: request n of a connection's episode e samples with fold_in(fold_in(seed, e), n)."
@@ -73,11 +69,10 @@ def _serve(argv: list[str]) -> None:
   if FLAGS.record and not float(loaded.spec.control_hz).is_integer():
     raise UserError(f"--record: LeRobot keeps a whole number of frames per second; the policy's rate is "
                     f"{loaded.spec.control_hz:g} Hz")  # fmt: skip
-  if FLAGS.host not in LOOPBACK:
-    print(
-      f"warning: serving on {FLAGS.host}, reachable from the network; only the token keeps strangers out", flush=True
-    )
-  token = os.environ.get(TOKEN_VARIABLE) or secrets.token_urlsafe(24)
+  warning = access.check_bind(FLAGS.host, FLAGS.remote)
+  if warning:
+    print(warning, flush=True)
+  token = access.new_token()
   print(f"compiling the policy of {FLAGS.checkpoint} ...", flush=True)
   try:
     rec = recorder.Recorder(FLAGS.record, loaded.spec, FLAGS.task) if FLAGS.record else None

@@ -18,10 +18,8 @@ rebinding) or whose `Origin` is not the page's own is refused before it is read.
 
 from __future__ import annotations
 
-import hmac
 import io
 import json
-import logging
 import threading
 import urllib.parse
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -29,11 +27,10 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 import numpy as np
 from PIL import Image
 
+from soe_jax.runtime.access import Guard
 from soe_jax.serve import session as session_lib
 from soe_jax.serve.server import PolicyServer, StaleChoice
 
-log = logging.getLogger(__name__)
-LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")
 MAX_BODY = 1 << 16
 
 PAGE = """<!doctype html>
@@ -209,7 +206,7 @@ def _post(server: PolicyServer, path: str, body: dict) -> dict:
 
 def serve(server: PolicyServer, host: str = "127.0.0.1", port: int = 0) -> ThreadingHTTPServer:
   """The page for `server` on `host`:`port` (0: any free port); call serve_forever on the result."""
-  allowed_hosts: set[str] = set()
+  guard = Guard(server.token)
   lock = threading.Lock()
 
   class Handler(BaseHTTPRequestHandler):
@@ -228,18 +225,10 @@ def serve(server: PolicyServer, host: str = "127.0.0.1", port: int = 0) -> Threa
       self._send(status, json.dumps({"error": message}).encode())
 
     def _admitted(self, query: dict) -> bool:
-      if self.headers.get("Host", "") not in allowed_hosts:
-        self._error(403, f"host {self.headers.get('Host')!r} is not this server's address")
-        return False
-      origin = self.headers.get("Origin")
-      if origin is not None and origin.removeprefix("http://") not in allowed_hosts:
-        self._error(403, f"origin {origin} is not this page's")
-        return False
-      given = self.headers.get("Authorization", "").removeprefix("Api-Key ") or query.get("token", [""])[0]
-      if not hmac.compare_digest(given.encode(), server.token.encode()):
-        self._error(401, "the server's token is required (open the address serve printed, with ?token=...)")
-        return False
-      return True
+      refused = guard.refusal(self.headers, query.get("token", [""])[0])
+      if refused:
+        self._error(*refused)
+      return refused is None
 
     def do_GET(self):
       url = urllib.parse.urlsplit(self.path)
@@ -279,6 +268,5 @@ def serve(server: PolicyServer, host: str = "127.0.0.1", port: int = 0) -> Threa
 
   httpd = ThreadingHTTPServer((host, port), Handler)
   httpd.daemon_threads = True
-  bound = httpd.server_address[1]
-  allowed_hosts.update(f"{h}:{bound}" for h in (*LOOPBACK_NAMES, host))
+  guard.bind(host, httpd.server_address[1])
   return httpd

@@ -8,7 +8,8 @@ timing); then each observation frame gets one reply frame (`session.Session.infe
 Who may connect: every handshake must carry the server's token as `Authorization: Api-Key <token>`
 (openpi-client sends its `api_key` so), loopback included; a handshake with an `Origin` header not in
 `origins` is refused (a browser page may open a websocket to a loopback port, and always says where it
-comes from; robots' clients send none). Frames over `max_size` bytes close the connection. A bad
+comes from; robots' clients send none), as is one whose `Host` is not the server's address (DNS
+rebinding; any Host when bound to every address). Frames over `max_size` bytes close the connection. A bad
 request (not msgpack, a missing key, a wrong shape or dtype) or a chunk that is not fit to send (not
 finite, outside the action box) gets one text frame saying what, as openpi's server sends its
 errors, and that connection is closed; the others are served on. Each connection has its own
@@ -35,6 +36,7 @@ from websockets.protocol import State
 
 from soe_jax.data.spec import PolicySpec
 from soe_jax.policies.agent import Agent
+from soe_jax.runtime.access import Guard
 from soe_jax.serve import modes as modes_lib
 from soe_jax.serve import recorder as recorder_lib
 from soe_jax.serve import session as session_lib
@@ -75,11 +77,17 @@ class PolicyServer:
       server_header="soe_jax",
     )  # fmt: skip
     self.host, self.port = self._server.socket.getsockname()[:2]
+    self.guard = Guard(token)
+    self.guard.bind(host, self.port)
     self._thread = None
 
   def _admit(self, connection: ws_server.ServerConnection, request) -> websockets.http11.Response | None:
     if request.path == "/healthz":
       return connection.respond(http.HTTPStatus.OK, "OK\n")
+    host = request.headers.get("Host", "")
+    if self.guard.hosts is not None and host not in self.guard.hosts:  # DNS rebinding
+      log.warning("refused a handshake for host %s", host)
+      return connection.respond(http.HTTPStatus.FORBIDDEN, f"host {host} is not this server's address\n")
     origin = request.headers.get("Origin")
     if origin is not None and origin not in self.origins:
       log.warning("refused a handshake from origin %s", origin)

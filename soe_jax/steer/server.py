@@ -9,7 +9,10 @@
   POST /api/finish | /api/reset {"seed": s} | /api/save {"round": r}
 
 The state lives in the server, so reloading the page shows the same episode. A bad request gets a
-400 with {"error": message} and changes nothing. Requests are served one at a time.
+400 with {"error": message} and changes nothing. Requests are served one at a time. Every request
+carries the token printed with the address (`?token=` on the page's address; the page sends it on),
+and is refused unless its `Host` is the server's address and its `Origin`, if any, the page's own
+(`runtime/access.py`): steered episodes become training data.
 """
 
 from __future__ import annotations
@@ -17,10 +20,13 @@ from __future__ import annotations
 import json
 import sys
 import threading
+import urllib.parse
 from collections.abc import Callable
 from http.server import BaseHTTPRequestHandler, HTTPServer
 
 from soe_jax.envs import panda
+from soe_jax.runtime import access
+from soe_jax.runtime.access import Guard
 from soe_jax.runtime.errors import UserError
 from soe_jax.steer.session import SteeringError, SteeringSession
 
@@ -74,9 +80,11 @@ episode to the run's data; the next round's fit takes <span id="used"></span> st
 <script>
 const COLORS = ["#e41a1c", "#377eb8", "#4daf4a", "#984ea3", "#ff7f00", "#a65628", "#f781bf", "#999999"];
 let view = null;
+const TOKEN = new URLSearchParams(location.search).get("token") || "";
 async function call(path, body) {
   const opts = body === undefined ? {} : {method: "POST", headers: {"Content-Type": "application/json"},
                                           body: JSON.stringify(body)};
+  opts.headers = {...(opts.headers || {}), "Authorization": "Api-Key " + TOKEN};
   const r = await fetch(path, opts);
   const data = await r.json();
   document.getElementById("error").textContent = r.ok ? "" : data.error;
@@ -118,8 +126,9 @@ function render(v) {
   document.getElementById("status").innerHTML =
     `step <span id="step">${v.step}</span> / ${v.episode_length}` + (v.success ? " &mdash; <b id='success'>success</b>" : "") +
     (v.finished ? " &mdash; episode over" : "") + ` &mdash; saved episodes: <span id="saved">${v.saved}</span>`;
-  document.getElementById("frame").src = "/api/frame.png?t=" + Date.now();
-  document.getElementById("hand").src = "/api/hand.png?t=" + Date.now();
+  const q = `?t=${Date.now()}&token=${encodeURIComponent(TOKEN)}`;
+  document.getElementById("frame").src = "/api/frame.png" + q;
+  document.getElementById("hand").src = "/api/hand.png" + q;
   chart(v);
   document.getElementById("dims").innerHTML = v.dims.map(d =>
     `<button class="dim${d.dim === v.chosen_dim ? " chosen" : ""}" id="dim-${d.dim}" data-dim="${d.dim}">dim ${d.dim} (${d.snr_db} dB)</button>`).join("");
@@ -151,7 +160,7 @@ call("/api/state");
 """
 
 
-def make_handler(session: SteeringSession):
+def make_handler(session: SteeringSession, guard: Guard):
   lock = threading.Lock()
   page = PAGE.replace("SIZE", str(session.image_size)).encode()
 
@@ -170,8 +179,17 @@ def make_handler(session: SteeringSession):
     def _json(self, code: int, obj) -> None:
       self._send(code, json.dumps(obj).encode(), "application/json")
 
+    def _admitted(self) -> bool:
+      query = urllib.parse.parse_qs(urllib.parse.urlsplit(self.path).query)
+      refused = guard.refusal(self.headers, query.get("token", [""])[0])
+      if refused:
+        self._json(refused[0], {"error": refused[1]})
+      return refused is None
+
     def do_GET(self):
       path = self.path.split("?")[0]
+      if not self._admitted():
+        return
       with lock:
         if path == "/":
           self._send(200, page, "text/html; charset=utf-8")
@@ -186,6 +204,8 @@ def make_handler(session: SteeringSession):
 
     def do_POST(self):
       path = self.path.split("?")[0]
+      if not self._admitted():
+        return
       try:
         length = int(self.headers.get("Content-Length", 0))
         body = json.loads(self.rfile.read(length) or b"{}")
@@ -218,9 +238,13 @@ class Server(HTTPServer):
     super().handle_error(request, client_address)
 
 
-def serve(session: SteeringSession, host: str = "127.0.0.1", port: int = 8765) -> HTTPServer:
-  """The server, bound but not serving: call `serve_forever` (in a thread of its own if need be)."""
-  return Server((host, port), make_handler(session))
+def serve(session: SteeringSession, host: str = "127.0.0.1", port: int = 8765, token: str = "") -> HTTPServer:
+  """The server for clients holding `token`, bound but not serving: call `serve_forever` (in a thread of
+  its own if need be)."""
+  guard = Guard(token)
+  httpd = Server((host, port), make_handler(session, guard))
+  guard.bind(host, httpd.server_address[1])
+  return httpd
 
 
 def run(
@@ -234,14 +258,15 @@ def run(
   """Serve the steering page of round r's policy (default: the last round's) of the run in `workdir`
   until Ctrl-C: `ready(session, address)` once the policy is compiled and the first frame drawn."""
   session = SteeringSession(workdir, r, seed)
+  token = access.new_token()
   try:
     try:
-      httpd = serve(session, host, port)
+      httpd = serve(session, host, port, token)
     except OSError as e:
       raise UserError(f"cannot serve at {host}:{port}: {e.strerror or e}") from None
     try:
       session.warm()  # compiled and first frame rendered before the address is given
-      ready(session, f"http://{host}:{httpd.server_address[1]}/")
+      ready(session, f"http://{host}:{httpd.server_address[1]}/?token={token}")
       httpd.serve_forever()
     except KeyboardInterrupt:
       pass  # the way to stop it

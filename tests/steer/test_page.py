@@ -11,6 +11,7 @@ import urllib.request
 import pytest
 
 CHROMIUM = "/usr/bin/chromium"
+TOKEN = "steering-token"
 # .ci/run installs both with apt-get; elsewhere the test says what is missing.
 pytestmark = pytest.mark.skipif(
   not os.path.exists(CHROMIUM)
@@ -27,7 +28,7 @@ def page_server(smoke_run):
 
   _, _, workdir, _ = smoke_run
   s = session.SteeringSession(workdir)
-  httpd = server.serve(s, "127.0.0.1", 0)
+  httpd = server.serve(s, "127.0.0.1", 0, TOKEN)
   thread = threading.Thread(target=httpd.serve_forever, daemon=True)
   thread.start()
   yield f"http://127.0.0.1:{httpd.server_address[1]}", s, workdir
@@ -41,8 +42,15 @@ def _mapped(name: str) -> bool:
     return any(name in line for line in f)
 
 
-def _post(url, body):
-  req = urllib.request.Request(url, json.dumps(body).encode(), {"Content-Type": "application/json"})
+def _get(url):
+  req = urllib.request.Request(url, headers={"Authorization": f"Api-Key {TOKEN}"})
+  with urllib.request.urlopen(req) as r:
+    return json.load(r)
+
+
+def _post(url, body, headers=None):
+  headers = {"Content-Type": "application/json", "Authorization": f"Api-Key {TOKEN}", **(headers or {})}
+  req = urllib.request.Request(url, json.dumps(body).encode(), headers)
   try:
     with urllib.request.urlopen(req) as r:
       return r.status, json.load(r)
@@ -61,7 +69,7 @@ def test_steer_a_proposal_and_save_it_from_the_browser(page_server):
   with sync_playwright() as p:
     browser = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
     page = browser.new_page()
-    page.goto(url)
+    page.goto(f"{url}/?token={TOKEN}")
     page.wait_for_selector("body[data-ready=true]")  # the first frame is drawn
     assert page.inner_text("#step") == "0" and not page.is_visible("#placeholder")
     # The in-hand view beside the scene, drawn at the page's size.
@@ -101,7 +109,7 @@ def test_steer_a_proposal_and_save_it_from_the_browser(page_server):
 
 def test_nonsense_requests_are_refused_and_change_nothing(page_server):
   url, session, workdir = page_server
-  before = json.load(urllib.request.urlopen(url + "/api/state"))
+  before = _get(url + "/api/state")
   for action, body, message in [
     ("/api/execute", {"id": "7-7-7", "round": session.round}, "no proposals yet"),
     ("/api/proposals", {"dim": 999, "round": session.round}, "not an effective dimension"),
@@ -115,10 +123,29 @@ def test_nonsense_requests_are_refused_and_change_nothing(page_server):
   assert code == 200
   code, data = _post(url + "/api/execute", {"id": "0-0-99", "round": session.round})
   assert code == 400 and "unknown proposal" in data["error"]
-  after = json.load(urllib.request.urlopen(url + "/api/state"))
+  after = _get(url + "/api/state")
   assert after["step"] == before["step"] and after["saved"] == before["saved"]
   code, data = _post(url + "/api/execute", {"id": props["proposals"][0]["id"], "round": session.round})
   assert code == 200 and data["step"] > 0 and not data["finished"]
   code, data = _post(url + "/api/save", {"round": session.round})  # an unfinished episode
   assert code == 400 and "not over" in data["error"]
-  assert json.load(urllib.request.urlopen(url + "/api/state"))["saved"] == before["saved"]
+  assert _get(url + "/api/state")["saved"] == before["saved"]
+
+
+def test_strangers_are_refused_and_change_nothing(page_server):
+  """The trap a cross-site page could spring: a plain-text POST /api/save from a foreign origin, a request
+  under a foreign Host (DNS rebinding), or none with the token: each refused before it is read."""
+  url, session, workdir = page_server
+  before = _get(url + "/api/state")
+  for headers, code in [
+    ({"Authorization": ""}, 401),
+    ({"Authorization": "Api-Key wrong"}, 401),
+    ({"Origin": "http://evil.example", "Content-Type": "text/plain"}, 403),
+    ({"Host": "evil.example:80"}, 403),
+  ]:
+    status, data = _post(url + "/api/save", {"round": session.round}, headers)
+    assert status == code and "error" in data, (headers, data)
+  req = urllib.request.Request(url + "/api/state")  # no token at all
+  with pytest.raises(urllib.error.HTTPError, match="401"):
+    urllib.request.urlopen(req)
+  assert _get(url + "/api/state")["saved"] == before["saved"]

@@ -9,7 +9,7 @@ import numpy as np
 from soe_jax.data import lerobot
 from soe_jax.serve import wire
 from tests.serve.test_modes import _obs, served  # noqa: F401 (the module fixture)
-from tests.serve.test_page import TOKEN, _robot, running  # noqa: F401 (the fixture)
+from tests.serve.test_robot_page import TOKEN, _robot, running  # noqa: F401 (the fixture)
 from tests.steer.test_page import CHROMIUM, pytestmark  # noqa: F401 (skipped without chromium)
 
 
