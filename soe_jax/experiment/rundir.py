@@ -279,8 +279,8 @@ class RunDir:
     out = {"evaluate": {}, "explore": {}}
     for r in self.rounds():
       for phase in out:
-        if os.path.exists(path := self.phase_path(r, phase)):
-          out[phase][str(r)] = atomic.read_json(path)["success"]
+        if (record := atomic.read_record(self.phase_path(r, phase))) is not None:
+          out[phase][str(r)] = record["success"]
     return out
 
   def demonstrations(self) -> list[dict]:
@@ -337,8 +337,8 @@ class RunDir:
     record (with `round` and `phase`) is written atomically last, so a phase counts as finished only
     once everything it produced is on disk."""
     path = self.phase_path(r, name)
-    if os.path.exists(path):
-      record = atomic.read_json(path)
+    record = atomic.read_record(path)  # (None: not done, or an empty or torn record)
+    if record is not None:
       return record, load(record) if load else None
     record, value = compute()
     record = dict(record, round=r, phase=name)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 import threading
 import time
 import uuid
@@ -15,6 +16,7 @@ import numpy as np
 from tensorboardX import SummaryWriter
 
 from soe_jax.runtime import provenance
+from soe_jax.runtime.errors import UserError
 
 _COMPILE_EVENTS = (
   "/jax/core/compile/jaxpr_trace_duration",
@@ -57,12 +59,32 @@ def flatten(d: dict, prefix: str = "") -> dict:
   return out
 
 
-def read_metrics(workdir: str) -> list[dict]:
+def read_metrics(workdir: str, repair: bool = False) -> list[dict]:
+  """The lines of `metrics.jsonl`. A torn last line (a write cut by a kill: no newline at its end) is left
+  out, and with `repair` cut from the file with a one-line warning; its phase's record was written before
+  it, so the phase is finished and the resumed run writes its line again. A bad line elsewhere is an
+  error naming the file and the line."""
   path = os.path.join(workdir, "metrics.jsonl")
   if not os.path.exists(path):
     return []
-  with open(path) as f:
-    return [json.loads(line) for line in f if line.strip()]
+  with open(path, "rb") as f:
+    data = f.read()
+  body, newline, torn = data.rpartition(b"\n")
+  out = []
+  for i, raw in enumerate(body.split(b"\n") if newline else []):
+    if raw.strip():
+      try:
+        out.append(json.loads(raw))
+      except ValueError:
+        raise UserError(f"{path}: line {i + 1} is not JSON ({raw[:60]!r}); the log is damaged") from None
+  if torn.strip() and repair:
+    with open(path, "r+b") as f:
+      f.truncate(len(body) + len(newline))
+      f.flush()
+      os.fsync(f.fileno())
+    print(f"warning: {path}: cut a torn last line ({len(torn)} bytes of a write cut short); its phase's line is "
+          "written again", file=sys.stderr, flush=True)  # fmt: skip
+  return out
 
 
 LINE_KEYS = (
@@ -105,7 +127,7 @@ class RunLog:
 
   def __init__(self, workdir: str, wandb: WandbLog | None = None):
     self.path = os.path.join(workdir, "metrics.jsonl")
-    self.logged = {(m["round"], m["phase"]) for m in read_metrics(workdir)}
+    self.logged = {(m["round"], m["phase"]) for m in read_metrics(workdir, repair=True)}
     self.writer = SummaryWriter(os.path.join(workdir, "tb"))
     self.wandb = wandb
 

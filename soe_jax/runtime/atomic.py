@@ -7,6 +7,7 @@ import contextlib
 import json
 import os
 import shutil
+import sys
 from collections.abc import Iterator
 
 
@@ -33,11 +34,26 @@ def _remove(path: str) -> None:
 
 
 def write_json(path: str, obj, indent: int | None = 2) -> None:
-  """Write `obj` to `path` as JSON, atomically."""
+  """Write `obj` to `path` as JSON, atomically and durably (on disk before it is renamed into place)."""
   with replacing(path) as tmp, open(tmp, "w") as f:
     json.dump(obj, f, indent=indent)
+    f.flush()
+    os.fsync(f.fileno())
 
 
 def read_json(path: str):
   with open(path) as f:
     return json.load(f)
+
+
+def read_record(path: str):
+  """A record that marks something done -> its content, or None when it is missing, empty or not
+  JSON (a write cut short on a file system that does not order them): "not done"."""
+  try:
+    with open(path) as f:
+      return json.load(f)
+  except FileNotFoundError:
+    return None
+  except ValueError:
+    print(f"warning: {path} is empty or not JSON: taken as not done", file=sys.stderr, flush=True)
+    return None
