@@ -23,7 +23,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import shutil
 from collections.abc import Callable
 from typing import Any
 
@@ -34,6 +33,7 @@ from soe_jax.experiment import runlog, schema, task
 from soe_jax.runtime import atomic, configfile
 from soe_jax.runtime.errors import UserError
 from soe_jax.train import checkpoint
+from soe_jax.train.partial import PartialFit
 
 CONFIG_FILE = "config.json"
 
@@ -155,9 +155,9 @@ def status(workdir: str, config: ml_collections.ConfigDict) -> str:
   said = f"resuming after round {last['round']} {last['phase']}" if last else "resuming round 0"
   fitting = 0 if last is None else last["round"] if last["phase"] == "explore" else None  # the next fit
   if fitting is not None:
-    progress = os.path.join(RunDir(workdir, config).partial_fit_dir(fitting), "progress.json")
-    if os.path.exists(progress):
-      said += f" (round {fitting}'s fit from step {atomic.read_json(progress)['done']})"
+    step = PartialFit(RunDir(workdir, config).partial_fit_dir(fitting)).latest()
+    if step is not None:
+      said += f" (round {fitting}'s fit from step {step})"
   return said
 
 
@@ -211,21 +211,16 @@ class RunDir:
     return os.path.join(self.round_dir(r), "fit_partial")
 
   def save_partial_fit(self, r: int, state, done: int, history: list[dict]) -> None:
-    """Round r's fit after step `done`: its state, then (last) its progress."""
-    path = self.partial_fit_dir(r)
-    checkpoint.save(path, state, self.config, task.spec(self.config))
-    atomic.write_json(os.path.join(path, "progress.json"), dict(done=done, history=history))
+    """Round r's fit after step `done`: its state and progress, saved together (`train.partial`)."""
+    PartialFit(self.partial_fit_dir(r)).save(state, done, history)
 
   def partial_fit(self, r: int):
-    """(state, done, history) of round r's fit in progress, or None."""
-    progress = os.path.join(self.partial_fit_dir(r), "progress.json")
-    if not os.path.exists(progress):
-      return None
-    saved = atomic.read_json(progress)
-    return checkpoint.load(self.partial_fit_dir(r), task.spec(self.config)).state, saved["done"], saved["history"]
+    """(state, done, history) of round r's fit in progress (its newest complete save), or None."""
+    policy = checkpoint.policy_from_spec(self.config.policy, task.spec(self.config))
+    return PartialFit(self.partial_fit_dir(r)).restore(checkpoint.abstract_state(self.config, policy))
 
   def clear_partial_fit(self, r: int) -> None:
-    shutil.rmtree(self.partial_fit_dir(r), ignore_errors=True)
+    PartialFit(self.partial_fit_dir(r)).clear()
 
   # -- what is there ----------------------------------------------------------------------------
   def has_checkpoint(self, r: int) -> bool:

@@ -15,7 +15,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import shutil
 
 import jax
 import jax.numpy as jnp
@@ -31,6 +30,7 @@ from soe_jax.runtime import atomic, interrupt
 from soe_jax.runtime.errors import UserError
 from soe_jax.train import checkpoint, normalization, train_state
 from soe_jax.train import fit as fit_lib
+from soe_jax.train.partial import PartialFit
 
 SELECTIONS = ("all_successes", "first_success")
 REFIT_MODES = ("continue", "scratch")
@@ -103,11 +103,10 @@ def _fit(config, spec, policy, sets, r: int, workdir: str, norm, init_state, pro
   state = jax.tree.map(jnp.copy, train_state.create(params, tx, norm, ema=config.fit.ema))
   if init_state is not None and config.refit.mode == "continue" and config.refit.ema == "carry":
     state = state.replace(ema_params=jax.tree.map(jnp.copy, init_state.ema_params), step=jnp.copy(init_state.step))
-  partial = os.path.join(rdir, "fit_partial")
+  partial = PartialFit(os.path.join(rdir, "fit_partial"))
   start, history = 0, []
-  if os.path.exists(os.path.join(partial, "progress.json")):
-    saved = atomic.read_json(os.path.join(partial, "progress.json"))
-    state, start, history = checkpoint.load(partial, spec).state, saved["done"], saved["history"]
+  if (saved := partial.restore(checkpoint.abstract_state(config, policy))) is not None:
+    state, start, history = saved
   every = max(1, int(config.fit.checkpoint_every) // int(config.fit.chunk_size)) if config.fit.checkpoint_every else 0
   # Never clipped silently: a target outside the box is an error (a stated box), or counted (the data's range).
   clipped = action_box.check(
@@ -118,15 +117,14 @@ def _fit(config, spec, policy, sets, r: int, workdir: str, norm, init_state, pro
 
     def on_chunk(state, done, history):
       if stop or (every and done < steps and (done // int(config.fit.chunk_size)) % every == 0):
-        checkpoint.save(partial, state, config, spec)
-        atomic.write_json(os.path.join(partial, "progress.json"), dict(done=done, history=history))
+        partial.save(state, done, history)
       if stop:
         raise KeyboardInterrupt
 
     state, history = fit_lib.fit(policy, tx, state, buf, jax.random.fold_in(root, _FIT), steps, config.fit, progress,
                                  f"round {r} fit", start, history, on_chunk)  # fmt: skip
   checkpoint.save(os.path.join(rdir, "ckpt"), state, config, spec)
-  shutil.rmtree(partial, ignore_errors=True)
+  partial.clear()
   snr = None
   if policy.bypass:  # the latent's SNR over this fit's data: the server's steering dimensions
     agent = Agent.from_state(policy, state)

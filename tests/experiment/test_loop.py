@@ -25,6 +25,7 @@ from soe_jax.experiment.rundir import RunDir
 from soe_jax.runtime.errors import UserError
 from soe_jax.train import checkpoint
 from soe_jax.train import fit as fit_lib
+from soe_jax.train.partial import PartialFit
 
 pytestmark = pytest.mark.usefixtures("toy_task")
 
@@ -223,7 +224,7 @@ def test_stopped_fit_resumes_to_the_same_parameters(toy_run, tmp_path, monkeypat
     loop.run(again, str(tmp_path / "run"), progress=False)
   assert [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)] == handlers  # the fit's are gone
   run = RunDir(str(tmp_path / "run"), again)
-  assert saved == [20] and os.path.exists(os.path.join(run.partial_fit_dir(0), "progress.json"))
+  assert saved == [20] and PartialFit(run.partial_fit_dir(0)).latest() == 20
   assert rundir.status(run.path, again) == "resuming round 0 (round 0's fit from step 20)"
   monkeypatch.undo()
   loop.run(again, str(tmp_path / "run"), progress=False)
