@@ -33,7 +33,7 @@ from soe_jax.experiment import rundir, runlog, validation
 from soe_jax.experiment.phases import Experiment
 from soe_jax.experiment.rundir import RunDir
 from soe_jax.experts import collect
-from soe_jax.runtime import atomic
+from soe_jax.runtime import atomic, locking
 from soe_jax.train import normalization
 
 
@@ -51,7 +51,14 @@ def demonstrations(config: ml_collections.ConfigDict, env, progress: bool) -> li
 
 
 def round0(exp: Experiment) -> tuple:
-  """Round 0 in its shared directory: demonstrations, fit, evaluation (each reused when present)."""
+  """Round 0 in its shared directory: demonstrations, fit, evaluation (each reused when present), by one
+  run at a time: another run of the same round 0 waits, then reads what this one wrote."""
+  with locking.held(os.path.join(exp.dir.round0, ".lock"), f"round 0 ({exp.dir.round0}) is being made by another "
+                    "run: waiting for it"):  # fmt: skip
+    return _round0(exp)
+
+
+def _round0(exp: Experiment) -> tuple:
   run = exp.dir
   if not os.path.exists(run.demos_path):
     os.makedirs(run.round0, exist_ok=True)
