@@ -5,6 +5,7 @@ silenced, SIGTERM handled as Ctrl-C, and Ctrl-C as a line on stderr with exit st
 
 from __future__ import annotations
 
+import errno
 import re
 import sys
 from collections.abc import Callable
@@ -146,6 +147,12 @@ def run(
     main(rest)
   except UserError as e:
     fail(str(e))
+  except OSError as e:
+    if e.errno not in (errno.ENOSPC, errno.EDQUOT):
+      raise
+    where = f"{e.filename}: " if e.filename else ""
+    fail(f"{where}no space left on the device; the file being written was removed, the ones before it are whole: "
+         "free some space and run the same command again to go on")  # fmt: skip
   except KeyboardInterrupt:
     print(f"\n{interrupted}", file=sys.stderr, flush=True)
     sys.exit(130)
