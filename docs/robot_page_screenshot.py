@@ -1,11 +1,11 @@
 """The robot page's picture in the README (`docs/robot_page.png`, 1280x800): Lift's simulator as the robot.
 Its scripted demonstrations written as a LeRobotDataset, a low-dim policy fitted on them with `fit`
-(`configs/robot.py:cpu`), served with the page (steering along the two strongest dimensions, three
+(`configs/robot.py:cpu`, 8,000 steps), served with the page (steering along the two strongest dimensions, three
 proposals each); the robot runs two base-path chunks,
 sending its two cameras as well, then asks to be steered, and the picture is taken while the request
 waits for a choice.
 
-  python docs/robot_page_screenshot.py [--demos=10 --steps=12500 --out=docs/robot_page.png]
+  python docs/robot_page_screenshot.py [--demos=10 --steps=8000 --out=docs/robot_page.png]
 
 Needs Debian's chromium (see the README's test section); about 15 minutes on a 2-core CPU.
 """
@@ -19,7 +19,7 @@ import threading
 from absl import app, flags
 
 flags.DEFINE_integer("demos", 10, "Scripted demonstrations of Lift to fit on.")
-flags.DEFINE_integer("steps", 12_500, "Fit steps (the cpu preset's).")
+flags.DEFINE_integer("steps", 8000, "Fit steps (the cpu preset has 12,500; the picture was made with 8,000).")
 flags.DEFINE_string("out", "docs/robot_page.png", "Where the picture goes.")
 FLAGS = flags.FLAGS
 TOKEN = "screenshot"
