@@ -41,6 +41,7 @@ import h5py
 import numpy as np
 
 from soe_jax.runtime import atomic
+from soe_jax.runtime.errors import UserError
 
 ROBOSUITE_TYPE = 1  # robomimic's EnvType.ROBOSUITE_TYPE
 # robosuite's names of the tasks rebuilt here.
@@ -114,46 +115,53 @@ def read_episodes(path: str, env=None, filter_key: str = "") -> tuple[list[dict]
   try:
     f = h5py.File(path, "r")
   except OSError as e:
-    raise ValueError(f"demonstration file {path!r} is not a readable HDF5 file: {e}") from e
-  with f:
-    if "data" not in f:
-      raise ValueError(f"demonstration file {path!r} has no 'data' group (not robomimic's layout)")
-    data = f["data"]
-    env_args = json.loads(data.attrs.get("env_args", "{}"))
-    names = [k for k in data.keys() if k.startswith("demo_")]
-    if filter_key:
-      known = sorted(f["mask"].keys()) if "mask" in f else []
-      if filter_key not in known:
-        raise ValueError(
-          f"demonstration file {path!r} has no filter key {filter_key!r}; its filter keys: {', '.join(known) or 'none'}"
-        )
-      names = [n.decode("utf-8") for n in np.array(f[f"mask/{filter_key}"][:])]
-      missing = [n for n in names if n not in data]
+    raise UserError(f"demonstration file {path!r} is not a readable HDF5 file: {e}") from None
+  try:
+    with f:
+      return _read(f, path, env, filter_key)
+  except (KeyError, RuntimeError, OSError, TypeError, json.JSONDecodeError) as e:  # a file damaged inside
+    raise UserError(f"demonstration file {path!r} is damaged: {type(e).__name__}: {e}") from None
+
+
+def _read(f, path: str, env, filter_key: str) -> tuple[list[dict], dict]:
+  if "data" not in f:
+    raise UserError(f"demonstration file {path!r} has no 'data' group (not robomimic's layout)")
+  data = f["data"]
+  env_args = json.loads(data.attrs.get("env_args", "{}"))
+  names = [k for k in data.keys() if k.startswith("demo_")]
+  if filter_key:
+    known = sorted(f["mask"].keys()) if "mask" in f else []
+    if filter_key not in known:
+      raise UserError(
+        f"demonstration file {path!r} has no filter key {filter_key!r}; its filter keys: {', '.join(known) or 'none'}"
+      )
+    names = [n.decode("utf-8") for n in np.array(f[f"mask/{filter_key}"][:])]
+    missing = [n for n in names if n not in data]
+    if missing:
+      raise UserError(f"demonstration file {path!r}: mask {filter_key!r} names missing episodes {missing[:5]}")
+  names = sorted(names, key=lambda k: int(k.split("_")[1]))
+  episodes = []
+  for name in names:
+    g = data[name]
+    for required in ("actions", "obs"):
+      if required not in g:
+        raise UserError(f"demonstration file {path!r}: {name} has no {required!r}")
+    ep = {"actions": g["actions"][()], "obs": {k: g["obs"][k][()] for k in g["obs"].keys()}}
+    if "next_obs" in g:
+      ep["next_obs"] = {k: g["next_obs"][k][()] for k in g["next_obs"].keys()}
+    if "states" in g:
+      ep["states"] = g["states"][()]
+    if "dones" in g and len(g["dones"]):
+      ep["success"] = bool(g["dones"][-1])  # as written above: done at the last step means success
+    if env is not None:
+      missing = [k for k in ("robot0_eef_quat", "object") if k not in ep["obs"]]
       if missing:
-        raise ValueError(f"demonstration file {path!r}: mask {filter_key!r} names missing episodes {missing[:5]}")
-    names = sorted(names, key=lambda k: int(k.split("_")[1]))
-    episodes = []
-    for name in names:
-      g = data[name]
-      for required in ("actions", "obs"):
-        if required not in g:
-          raise ValueError(f"demonstration file {path!r}: {name} has no {required!r}")
-      ep = {"actions": g["actions"][()], "obs": {k: g["obs"][k][()] for k in g["obs"].keys()}}
-      if "next_obs" in g:
-        ep["next_obs"] = {k: g["next_obs"][k][()] for k in g["next_obs"].keys()}
-      if "states" in g:
-        ep["states"] = g["states"][()]
-      if "dones" in g and len(g["dones"]):
-        ep["success"] = bool(g["dones"][-1])  # as written above: done at the last step means success
-      if env is not None:
-        missing = [k for k in ("robot0_eef_quat", "object") if k not in ep["obs"]]
-        if missing:
-          raise ValueError(f"demonstration file {path!r}: {name} has no obs {', '.join(missing)}")
-        if set(ep.get("next_obs", {})) >= set(ep["obs"]):  # one sequence: obs, then the last next_obs
-          full = env.conform_quaternions({k: np.concatenate([v, ep["next_obs"][k][-1:]]) for k, v in ep["obs"].items()})
-          ep["obs"], ep["next_obs"] = {k: v[:-1] for k, v in full.items()}, {k: v[1:] for k, v in full.items()}
-        else:
-          ep["obs"] = env.conform_quaternions(ep["obs"])
-          ep.pop("next_obs", None)
-      episodes.append(ep)
+        raise UserError(f"demonstration file {path!r}: {name} has no obs {', '.join(missing)}")
+      if set(ep.get("next_obs", {})) >= set(ep["obs"]):  # one sequence: obs, then the last next_obs
+        full = env.conform_quaternions({k: np.concatenate([v, ep["next_obs"][k][-1:]]) for k, v in ep["obs"].items()})
+        ep["obs"], ep["next_obs"] = {k: v[:-1] for k, v in full.items()}, {k: v[1:] for k, v in full.items()}
+      else:
+        ep["obs"] = env.conform_quaternions(ep["obs"])
+        ep.pop("next_obs", None)
+    episodes.append(ep)
   return episodes, env_args

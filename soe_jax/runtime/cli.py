@@ -85,6 +85,12 @@ def parse(flag_values: Flags, argv: list[str], required: tuple[str, ...] = ()) -
   flag_values.unparse_flags()  # a command run twice in one process starts from its defaults
   for name in [n for n in flag_values if n.startswith("config.")]:  # and without the last run's overrides
     delattr(flag_values, name)
+  given = next((a.split("=", 1)[1] for a in argv if a.startswith("--config=")), None)
+  if given is not None:
+    try:
+      configfile.check(given.partition(":")[0])  # a file that cannot be a config: one line, before it runs
+    except UserError as e:
+      fail(str(e))
   saved, sys.argv = sys.argv, list(argv)  # (ml_collections reads `--config.a.b=v` from sys.argv)
   try:
     rest = flag_values(argv)

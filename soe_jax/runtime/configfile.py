@@ -3,6 +3,7 @@ it, and the keys a config has (for "did you mean" on a misspelled override)."""
 
 from __future__ import annotations
 
+import ast
 import difflib
 import importlib.util
 import os
@@ -16,14 +17,34 @@ def load(spec: str, presets: str = "", overrides: dict | None = None) -> ml_coll
   """The config `configs/<task>.py[:PRESETS]` gives with `presets` appended, then `overrides`
   ({"a.b": value})."""
   path, _, own = spec.partition(":")
-  if not os.path.exists(path):
-    raise UserError(f"no config file at {path!r}")
+  check(path)
   module_spec = importlib.util.spec_from_file_location("soe_config", path)
   module = importlib.util.module_from_spec(module_spec)
   module_spec.loader.exec_module(module)
   config = module.get_config(",".join(p for p in (own, presets) if p))
   config.update_from_flattened_dict(dict(overrides or {}))
   return config
+
+
+def check(path: str) -> None:
+  """Refuse a config file that cannot be one, without running it: missing, a directory, not text, not
+  Python, or without a top-level `get_config` (`UserError` naming the file and what is wrong)."""
+  if not os.path.exists(path):
+    raise UserError(f"no config file at {path!r}")
+  if not os.path.isfile(path):
+    raise UserError(f"config file {path!r} is a directory, not a Python file")
+  try:
+    with open(path, "rb") as f:
+      tree = ast.parse(f.read(), path)
+  except SyntaxError as e:
+    raise UserError(f"config file {path!r}: line {e.lineno}: {e.msg}") from None
+  except (UnicodeDecodeError, ValueError) as e:
+    raise UserError(f"config file {path!r} is not a Python file: {e}") from None
+  names = {n.name for n in tree.body if isinstance(n, ast.FunctionDef)}
+  names |= {t.id for n in tree.body if isinstance(n, ast.Assign) for t in n.targets if isinstance(t, ast.Name)}
+  names |= {a.asname or a.name for n in tree.body if isinstance(n, ast.ImportFrom) for a in n.names}
+  if "get_config" not in names:
+    raise UserError(f"config file {path!r} defines no get_config(arg) (an empty or foreign file?)")
 
 
 def keys(config: ml_collections.ConfigDict, prefix: str = "") -> list[str]:

@@ -52,13 +52,11 @@ class Episode:
     self.frames: list[tuple[dict, np.ndarray, float, int]] = []  # (observation, action, robot time, mode)
     self.current, self.current_time = observation, float(stamp)
     self.pending = None  # (actions (Ta, A), mode index) of the last reply
-    self.modes: set[str] = set()
     self.start_state = None  # the attempt group, when the robot names it at the end
     self.gaps: str | None = None  # why the frames are not every step's, if they are not
 
   def sent(self, actions: np.ndarray, mode: str) -> None:
     self.pending = (np.asarray(actions, np.float32), MODES.index(mode))
-    self.modes.add(mode)
 
   def advance(self, observations: list[dict], stamps: list[float], hz: float | None = None) -> None:
     """Close frames with the k observations taken after each of the last reply's first k actions. With
