@@ -58,14 +58,14 @@ class Episode:
   def sent(self, actions: np.ndarray, mode: str) -> None:
     self.pending = (np.asarray(actions, np.float32), MODES.index(mode))
 
-  def advance(self, observations: list[dict], stamps: list[float], hz: float | None = None) -> None:
-    """Close frames with the k observations taken after each of the last reply's first k actions. With
-    the control rate `hz`: when the time since the last observation spans more than twice k steps
-    (and one), the robot ran actions it sent no observation for (a client that sends one observation
-    per chunk), and the episode has gaps: it is refused when labelled, not written wrong."""
-    if observations and hz and (stamps[-1] - self.current_time) * hz > 2 * len(observations) + 1:
-      self.gaps = self.gaps or (f"{(stamps[-1] - self.current_time) * hz:.0f} steps passed with "
-                                f"{len(observations)} observation(s) sent")  # fmt: skip
+  def advance(self, observations: list[dict], stamps: list[float], stacked: bool = True) -> None:
+    """Close frames with the k observations taken after each of the last reply's first k actions
+    (`stacked`: they came with the leading axis that says so). One observation without that axis after
+    a reply of several actions says nothing of the steps between (openpi's `ActionChunkBroker` sends
+    so): the episode has gaps, and is refused when labelled rather than written wrong."""
+    if observations and not stacked and self.pending is not None and len(self.pending[0]) > 1:
+      self.gaps = self.gaps or (f"one observation without the leading axis after a reply of {len(self.pending[0])} "
+                                "actions")  # fmt: skip
     if self.pending is None:
       if observations:
         raise LabelError("observations arrived with no reply before them")

@@ -6,8 +6,9 @@ A request is the robot's observation dict in raw units: every key of the spec (`
 low-dimensional vectors as float arrays of their shapes, camera images as (H, W, 3) uint8), either one
 observation or, with a leading axis of k, the k observations taken since the previous request (one
 after each executed action, so the history holds consecutive steps and the recorder every step; a
-client that sends one observation per chunk gives the policy a history of observations a chunk
-apart); optionally `timestamp` (seconds, of the latest observation), `episode_start` (true on an
+client that sends one observation without the axis after a chunk of several actions, as openpi's
+`ActionChunkBroker` does, gives the policy a history of observations a chunk apart, and its episode
+cannot be recorded); optionally `timestamp` (seconds, of the latest observation), `episode_start` (true on an
 episode's first observation; openpi's `reset()` sends nothing, so the robot says it here) and `mode`
 (`modes.MODES`, default the server's). Other keys are ignored. The reply holds chunk-first arrays, as
 openpi's `ActionChunkBroker(policy, action_horizon=Ta)` slices:
@@ -69,15 +70,16 @@ def _scalar(v):
   return v.item() if isinstance(v, np.ndarray) and v.shape == () else v  # openpi packs 0-d arrays so
 
 
-def observations_of(spec: PolicySpec, obs: dict) -> list[dict]:
-  """A request's raw observations, checked: one, or the k the leading axis holds -> k dicts of the
-  spec's keys (images uint8 (H, W, 3), vectors float32), oldest first."""
+def observations_of(spec: PolicySpec, obs: dict) -> tuple[list[dict], bool]:
+  """A request's raw observations, checked: one, or the k the leading axis holds -> (k dicts of the
+  spec's keys (images uint8 (H, W, 3), vectors float32), oldest first; whether they came stacked, i.e.
+  as the observations after each executed action)."""
   if not isinstance(obs, dict):
     raise RequestError(f"a request is a dict of observations, got {type(obs).__name__}")
   missing = [k for k in spec.observations if k not in obs]
   if missing:
     raise RequestError(f"missing observation keys {missing}; the policy reads {list(spec.observations)}")
-  arrays, counts = {}, {}
+  arrays, counts, stacks = {}, {}, []
   for key, info in spec.observations.items():
     value = obs[key]
     if not isinstance(value, (np.ndarray, np.generic, list, float, int)):
@@ -98,6 +100,7 @@ def observations_of(spec: PolicySpec, obs: dict) -> list[dict]:
         raise RequestError(f"observation {key!r} is not finite: {value.tolist()}")
       value = value.astype(np.float32)
     arrays[key] = value if stacked else value[None]
+    stacks.append(stacked)
     counts[key] = len(arrays[key])
   k = set(counts.values())
   if len(k) > 1:
@@ -105,7 +108,9 @@ def observations_of(spec: PolicySpec, obs: dict) -> list[dict]:
   k = k.pop() if k else 1
   if not 1 <= k <= MAX_SINCE:
     raise RequestError(f"{k} observations in one request; between 1 and {MAX_SINCE}")
-  return [{key: v[i] for key, v in arrays.items()} for i in range(k)]
+  if stacks and len(set(stacks)) > 1:
+    raise RequestError("some observation keys have the leading axis of observations since the last request, some not")
+  return [{key: v[i] for key, v in arrays.items()} for i in range(k)], bool(stacks) and stacks[0]
 
 
 def extra_cameras(spec: PolicySpec, obs: dict) -> dict:
@@ -123,7 +128,7 @@ def extra_cameras(spec: PolicySpec, obs: dict) -> dict:
 def policy_input(spec: PolicySpec, obs: dict):
   """A raw observation dict -> its latest observation as the policy reads it (batch of 1): the low-dim
   vector (1, D) of the spec's keys in order, with {"lowdim", "images"} for an image policy."""
-  return _input(spec, observations_of(spec, obs)[-1])
+  return _input(spec, observations_of(spec, obs)[0][-1])
 
 
 def _input(spec: PolicySpec, one: dict):
@@ -166,7 +171,7 @@ class Session:
     PolicyError for a chunk that must not be sent."""
     if isinstance(obs, dict) and _scalar(obs.get("episode_end", False)) is True:
       return self.end(obs)
-    observations = observations_of(self.spec, obs)
+    observations, stacked = observations_of(self.spec, obs)
     start = _scalar(obs.get("episode_start", False))
     if not isinstance(start, (bool, np.bool_)):
       raise RequestError(f"episode_start must be true or false, got {start!r}")
@@ -190,7 +195,7 @@ class Session:
     else:
       log = self.log
       try:
-        log.advance(observations, stamps, self.spec.control_hz)
+        log.advance(observations, stamps, stacked)
       except recorder_lib.LabelError as e:
         raise RequestError(str(e)) from None
     with self.lock:
@@ -240,7 +245,7 @@ class Session:
     except recorder_lib.LabelError as e:
       raise RequestError(str(e)) from None
     has_obs = all(k in obs for k in self.spec.observations)
-    observations = observations_of(self.spec, obs) if has_obs else []
+    observations, stacked = observations_of(self.spec, obs) if has_obs else ([], True)
     dt, stamp = 1.0 / self.spec.control_hz, _scalar(obs.get("timestamp", time.time()))
     try:
       self.log.advance(
