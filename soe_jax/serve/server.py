@@ -22,7 +22,6 @@ picks a proposal, the timeout passes, or the robot disconnects.
 
 from __future__ import annotations
 
-import hmac
 import http
 import itertools
 import logging
@@ -58,8 +57,7 @@ class PolicyServer:
                seed: int = 0, origins: tuple[str, ...] = (), max_size: int = 16 << 20,
                modes: modes_lib.Modes | None = None, default_mode: str = "base",
                recorder: recorder_lib.Recorder | None = None, steer_timeout: float = 30.0):  # fmt: skip
-    if not token:
-      raise ValueError("a policy server needs a token")
+    self.guard = Guard(token)  # (a server without a token is refused here, before anything compiles)
     self.agent, self.spec, self.token, self.seed = agent, spec, token, seed
     self.origins = tuple(origins)
     self.modes = modes if modes is not None else modes_lib.Modes(agent, spec)
@@ -77,7 +75,6 @@ class PolicyServer:
       server_header="soe_jax",
     )  # fmt: skip
     self.host, self.port = self._server.socket.getsockname()[:2]
-    self.guard = Guard(token)
     self.guard.bind(host, self.port)
     self._thread = None
 
@@ -93,7 +90,7 @@ class PolicyServer:
       log.warning("refused a handshake from origin %s", origin)
       return connection.respond(http.HTTPStatus.FORBIDDEN, f"origin {origin} is not allowed\n")
     given = request.headers.get("Authorization", "")
-    if not hmac.compare_digest(given.encode(), f"Api-Key {self.token}".encode()):
+    if not (given.startswith("Api-Key ") and self.guard.token_ok(given.removeprefix("Api-Key "))):
       log.warning("refused a handshake from %s without the token", connection.remote_address)
       return connection.respond(
         http.HTTPStatus.UNAUTHORIZED, "the server's token is required: Authorization: Api-Key <token>\n"
