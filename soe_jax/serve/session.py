@@ -30,7 +30,6 @@ fixed observation and key give the chunk the policy gives in-process (`request_k
 
 from __future__ import annotations
 
-import functools
 import threading
 import time
 from collections.abc import Callable
@@ -58,12 +57,6 @@ class PolicyError(RuntimeError):
 
 def request_key(seed: int, episode: int, step: int) -> jax.Array:
   return jax.random.fold_in(jax.random.fold_in(jax.random.key(seed), episode), step)
-
-
-@functools.lru_cache(maxsize=8)
-def chunk_fn(policy):
-  """The compiled (agent, history, key) -> chunk of the base path (one per policy)."""
-  return jax.jit(lambda agent, history, key: agent.chunk(history, key))
 
 
 def _scalar(v):

@@ -61,6 +61,7 @@ def main(argv: list[str]) -> None:
   from soe_jax.robot import config as robot_config
   from soe_jax.robot import run
   from soe_jax.serve import session, wire
+  from soe_jax.serve.modes import Modes
   from soe_jax.serve.server import PolicyServer
   from soe_jax.train import checkpoint
 
@@ -104,9 +105,8 @@ def main(argv: list[str]) -> None:
     obs, replied = first
     x = session.policy_input(loaded.spec, obs)
     history = agent_lib.initial_history(x, loaded.policy.n_obs_steps)
-    agent = loaded.agent  # compiled as the server compiles it (compiled otherwise, XLA fuses differently: ~1e-5)
-    chunk = session.chunk_fn(agent.policy)(agent, history, session.request_key(0, 0, 0))
-    inproc = np.asarray(agent.executed(chunk))[0]
+    agent = loaded.agent  # the base path's program, as the server compiles it (otherwise XLA fuses differently: ~1e-5)
+    inproc = np.asarray(Modes(agent, loaded.spec)("base", agent, history, session.request_key(0, 0, 0)))[0]
     return rec, replied, inproc
 
   recorded, replied0, inproc0 = serve_and_record(0, True)

@@ -36,6 +36,7 @@ from soe_jax.policies import agent as agent_lib
 from soe_jax.robot import config as robot_config
 from soe_jax.robot import run
 from soe_jax.serve import session, wire
+from soe_jax.serve.modes import Modes
 from soe_jax.train import checkpoint
 from tests.experiment import toy
 
@@ -132,8 +133,8 @@ def test_the_simulator_as_the_robot(fitted, tmp_path):
   loaded = checkpoint.load(ckpt)
   x = session.policy_input(loaded.spec, {f"observation.{k}": v for k, v in obs.items()})
   history = agent_lib.initial_history(x, loaded.policy.n_obs_steps)
-  chunk = session.chunk_fn(loaded.policy)(loaded.agent, history, session.request_key(0, 0, 0))
-  np.testing.assert_allclose(served, np.asarray(loaded.agent.executed(chunk))[0], atol=1e-6)
+  base = Modes(loaded.agent, loaded.spec)("base", loaded.agent, history, session.request_key(0, 0, 0))
+  np.testing.assert_allclose(served, np.asarray(base)[0], atol=1e-6)  # the server's own program, in-process
   assert served.shape == (ta, 10)
 
 
