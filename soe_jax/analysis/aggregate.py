@@ -24,6 +24,7 @@ from soe_jax import metrics
 from soe_jax.analysis import report
 from soe_jax.analysis.tables import markdown, mean_std
 from soe_jax.experiment import rundir, runlog, schema
+from soe_jax.runtime import atomic, faults
 from soe_jax.runtime.errors import UserError
 
 CONTROL = "control"
@@ -214,7 +215,7 @@ def write(root: str, out: str | None = None) -> tuple[list[str], str, str]:
     raise UserError(f"no run directories (metrics.jsonl + config.json) under {root!r}")
   md, csv_text = aggregate(runs)
   out = out or os.path.join(root, "comparison")
-  for ext, text in (("md", md), ("csv", csv_text)):
-    with open(f"{out}.{ext}", "w") as f:
-      f.write(text)
+  with faults.site("comparison"):
+    for ext, text in (("md", md), ("csv", csv_text)):
+      atomic.write_text(f"{out}.{ext}", text)
   return runs, md, out

@@ -15,11 +15,10 @@ Running the campaign again resumes where it stopped.
 from __future__ import annotations
 
 import os
-import shutil
 
 from soe_jax.analysis import aggregate, report
 from soe_jax.experiment import loop, validation
-from soe_jax.runtime import atomic, configfile, provenance
+from soe_jax.runtime import atomic, configfile, faults, provenance
 from soe_jax.runtime.errors import UserError
 
 METHODS = ("dp", "sime", "soe", "soe_steer", "control", "dp+expert_data", "soe+expert_data")
@@ -38,9 +37,11 @@ def main_command(spec: str, presets: str, overrides: dict, workdir: str, round0_
 def export(workdir: str, dest: str, source: dict) -> None:
   """Copy a finished run's small files to `dest`, with `source` as `command.json`."""
   os.makedirs(dest, exist_ok=True)
-  for name in EXPORTED:
-    shutil.copyfile(os.path.join(workdir, name), os.path.join(dest, name))
-  atomic.write_json(os.path.join(dest, "command.json"), dict(kind="run", **source))
+  atomic.remove_stale(dest)
+  with faults.site("results_export"):
+    for name in EXPORTED:
+      atomic.copy(os.path.join(workdir, name), os.path.join(dest, name))
+    atomic.write_json(os.path.join(dest, "command.json"), dict(kind="run", **source))
 
 
 def configs(spec: str, overrides: dict, methods: list[str]) -> tuple[int, dict, dict]:

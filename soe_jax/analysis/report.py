@@ -18,7 +18,7 @@ from matplotlib.figure import Figure
 from soe_jax import metrics
 from soe_jax.analysis.tables import markdown, pct, rate
 from soe_jax.experiment import rundir, runlog, video
-from soe_jax.runtime import atomic
+from soe_jax.runtime import atomic, faults
 
 OUTCOMES_FILE = "outcomes.json"
 
@@ -117,7 +117,12 @@ def _paired_with_round0(evaluated: dict, rounds: list[int]) -> list[str]:
 
 def write(workdir: str) -> dict:
   """Write `report.md`, the plots and `outcomes.json` (the per-state outcomes of every evaluation and
-  exploration, `RunDir.outcomes`); return the summary."""
+  exploration, `RunDir.outcomes`), each atomically (the write site "report"); return the summary."""
+  with faults.site("report"):
+    return _write(workdir)
+
+
+def _write(workdir: str) -> dict:
   outcomes = rundir.RunDir.open(workdir).outcomes()
   atomic.write_json(os.path.join(workdir, OUTCOMES_FILE), outcomes)
   s, phases = _summarize(workdir)
@@ -162,8 +167,7 @@ def write(workdir: str) -> dict:
   if any(p is not None for p in s["pass_at_k_per_round"]):
     md += ["![exploration over rounds](exploration.png)", ""]
   md += _video_lines(workdir, outcomes)
-  with open(os.path.join(workdir, "report.md"), "w") as f:
-    f.write("\n".join(md))
+  atomic.write_text(os.path.join(workdir, "report.md"), "\n".join(md))
   _plots(workdir, s)
   return s
 
@@ -202,7 +206,7 @@ def _plots(workdir: str, s: dict) -> None:
   ax.set_ylim(-3, 103)  # 0% and 100% stay off the frame
   ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1))
   fig.tight_layout()
-  fig.savefig(os.path.join(workdir, "success.png"), dpi=110)
+  _save(fig, os.path.join(workdir, "success.png"))
   ex_rounds = [r for r, p in zip(rounds, s["pass_at_k_per_round"]) if p is not None]
   if not ex_rounds:  # nothing explored: no exploration figure
     return
@@ -222,4 +226,9 @@ def _plots(workdir: str, s: dict) -> None:
   ax1.set(xlabel="round", title=f"{s['task']} {s['method']}: exploration")
   ax1.set_ylabel("rollouts (sum over start states)", color="C0")
   fig.tight_layout()
-  fig.savefig(os.path.join(workdir, "exploration.png"), dpi=110)
+  _save(fig, os.path.join(workdir, "exploration.png"))
+
+
+def _save(fig: Figure, path: str) -> None:
+  with atomic.replacing(path, suffix=".png") as tmp:
+    fig.savefig(tmp, dpi=110)

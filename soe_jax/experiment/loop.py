@@ -33,7 +33,7 @@ from soe_jax.experiment import rundir, runlog, validation
 from soe_jax.experiment.phases import Experiment
 from soe_jax.experiment.rundir import RunDir
 from soe_jax.experts import collect
-from soe_jax.runtime import atomic, locking
+from soe_jax.runtime import atomic, faults, locking
 from soe_jax.train import normalization
 
 
@@ -60,13 +60,13 @@ def round0(exp: Experiment) -> tuple:
 
 def _round0(exp: Experiment) -> tuple:
   run = exp.dir
+  atomic.remove_stale(run.round0)
   if not os.path.exists(run.demos_path):
     os.makedirs(run.round0, exist_ok=True)
-    hdf5.write_episodes(
-      run.demos_path,
-      demonstrations(exp.config, exp.env, exp.progress),
-      dict(env_name=exp.env.name, env_kwargs=exp.env.config.to_dict(), source="demonstrations"),
-    )
+    demos = demonstrations(exp.config, exp.env, exp.progress)
+    with faults.site("demonstrations"):
+      hdf5.write_episodes(run.demos_path, demos, dict(env_name=exp.env.name, env_kwargs=exp.env.config.to_dict(),
+                                                      source="demonstrations"))  # fmt: skip
   demos = run.demonstrations()
   c, env = exp.config, exp.env
   floors = observations.select_keys(env.obs_min_span, env.object_dim, env.num_robots, exp.policy.lowdim_keys)

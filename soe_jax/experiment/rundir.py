@@ -30,7 +30,7 @@ import ml_collections
 
 from soe_jax.data import episodes, hdf5
 from soe_jax.experiment import runlog, schema, task
-from soe_jax.runtime import atomic, configfile
+from soe_jax.runtime import atomic, configfile, faults
 from soe_jax.runtime.errors import UserError
 from soe_jax.train import checkpoint
 from soe_jax.train.partial import PartialFit
@@ -89,7 +89,8 @@ def check_config(workdir: str, config: ml_collections.ConfigDict) -> None:
   path = os.path.join(workdir, CONFIG_FILE)
   current = plain(config)
   if not os.path.exists(path):
-    atomic.write_json(path, current)
+    with faults.site("run_config"):
+      atomic.write_json(path, current)
     return
   saved = atomic.read_json(path)
   check_renamed(saved, path)
@@ -105,7 +106,8 @@ def check_config(workdir: str, config: ml_collections.ConfigDict) -> None:
       + "\nuse a new --workdir, or the saved config"
     )
   if extended:
-    atomic.write_json(path, current)
+    with faults.site("run_config"):
+      atomic.write_json(path, current)
 
 
 def load_config(workdir: str) -> ml_collections.ConfigDict:
@@ -172,8 +174,10 @@ class RunDir:
 
   @classmethod
   def create(cls, workdir: str, config: ml_collections.ConfigDict) -> RunDir:
-    """Make (or reopen, checking the config) the run directory; write its config."""
+    """Make (or reopen, checking the config) the run directory; write its config. Temporary files a killed
+    run left are removed."""
     os.makedirs(workdir, exist_ok=True)
+    atomic.remove_stale(workdir)
     check_config(workdir, config)
     return cls(workdir, config)
 
@@ -238,7 +242,8 @@ class RunDir:
 
   def save_kept(self, r: int, kept: list[dict], meta: dict) -> None:
     """Write the episodes round r kept (`meta` goes into the file's env_args)."""
-    hdf5.write_episodes(self.data_path(r), kept, dict(meta, source=f"round {r} exploration"))
+    with faults.site("episodes"):
+      hdf5.write_episodes(self.data_path(r), kept, dict(meta, source=f"round {r} exploration"))
 
   def kept(self, record: dict) -> list[dict]:
     """The episodes the explore phase of `record` kept."""
@@ -252,7 +257,8 @@ class RunDir:
     """Store round r's first episodes of `phase` (nothing when there are none: `log.videos=0`)."""
     if not episodes:
       return
-    hdf5.write_episodes(self.shown_path(r, phase), episodes, dict(meta, source=f"round {r} {phase}, first episodes"))
+    with faults.site("episodes"):
+      hdf5.write_episodes(self.shown_path(r, phase), episodes, dict(meta, source=f"round {r} {phase}, first episodes"))
 
   def shown(self, r: int, phase: str) -> list[dict]:
     """Round r's stored first episodes of `phase` (none if it stored none)."""
@@ -340,5 +346,6 @@ class RunDir:
     os.makedirs(os.path.dirname(path), exist_ok=True)
     if save:
       save(value)
-    atomic.write_json(path, record)
+    with faults.site("phase_record"):
+      atomic.write_json(path, record)
     return record, value

@@ -15,7 +15,7 @@ import jax
 import numpy as np
 from tensorboardX import SummaryWriter
 
-from soe_jax.runtime import provenance
+from soe_jax.runtime import faults, provenance
 from soe_jax.runtime.errors import UserError
 
 _COMPILE_EVENTS = (
@@ -143,15 +143,22 @@ class RunLog:
       self.logged.add((record["round"], record["phase"]))
 
   def write(self, record: dict) -> None:
-    """Append one phase's record (and its numbers to TensorBoard, stepped by round)."""
-    with open(self.path, "a") as f:
-      f.write(json.dumps(record) + "\n")
-      f.flush()
-      os.fsync(f.fileno())
-    for k, v in record.items():
-      if isinstance(v, (int, float)) and not isinstance(v, bool) and k != "round":
-        self.writer.add_scalar(f"{record['phase']}/{k}", v, record["round"])
-    self.writer.flush()
+    """Append one phase's record (and its numbers to TensorBoard, stepped by round): the write site
+    "metrics_line", whose `during` point has half the line on disk (a torn line, `read_metrics`)."""
+    text = json.dumps(record) + "\n"
+    with faults.site("metrics_line"):
+      with open(self.path, "a") as f:
+        half = len(text) // 2
+        for i, part in enumerate((text[:half], text[half:])):
+          f.write(part)
+          f.flush()
+          os.fsync(f.fileno())
+          if i == 0:
+            faults.during()
+      for k, v in record.items():
+        if isinstance(v, (int, float)) and not isinstance(v, bool) and k != "round":
+          self.writer.add_scalar(f"{record['phase']}/{k}", v, record["round"])
+      self.writer.flush()
     if self.wandb is not None:
       self.wandb.log(record)
     print(summary_line(record), flush=True)

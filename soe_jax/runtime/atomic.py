@@ -6,24 +6,55 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import shutil
 import sys
 from collections.abc import Iterator
+
+from soe_jax.runtime import faults
 
 
 @contextlib.contextmanager
 def replacing(path: str, suffix: str = "") -> Iterator[str]:
   """Yield a temporary path to write to; on success it replaces `path` (a file or a directory), on an
-  error it is removed. `suffix`: the temporary name's ending, for writers that go by it (".mp4")."""
+  error it is removed. `suffix`: the temporary name's ending, for writers that go by it (".mp4"). The
+  moment before the rename is the enclosing write site's `faults.during()`."""
   tmp = f"{path}.tmp-{os.getpid()}{suffix}"
   try:
     yield tmp
   except BaseException:
     _remove(tmp)
     raise
+  faults.during()
   if os.path.isdir(path) and not os.path.islink(path):
     shutil.rmtree(path)
   os.replace(tmp, path)
+
+
+_TEMPORARY = re.compile(r"\.tmp-(\d+)")
+
+
+def remove_stale(directory: str) -> list[str]:
+  """Remove the temporary files and directories under `directory` that a killed writer left (`replacing`'s
+  names, whose process is gone) -> their paths. Those of a live process are its writes in progress."""
+  removed = []
+  for parent, dirs, files in os.walk(directory):
+    for name in dirs + files:
+      if (m := _TEMPORARY.search(name)) and not _alive(int(m.group(1))):
+        _remove(os.path.join(parent, name))
+        removed.append(os.path.join(parent, name))
+    dirs[:] = [d for d in dirs if os.path.join(parent, d) not in removed]
+  return removed
+
+
+def _alive(pid: int) -> bool:
+  try:
+    os.kill(pid, 0)
+  except ProcessLookupError:
+    return False
+  except PermissionError:  # another user's
+    return True
+  return True
 
 
 def _remove(path: str) -> None:
@@ -39,6 +70,22 @@ def write_json(path: str, obj, indent: int | None = 2) -> None:
     json.dump(obj, f, indent=indent)
     f.flush()
     os.fsync(f.fileno())
+
+
+def write_text(path: str, text: str) -> None:
+  """Write `text` to `path`, atomically and durably."""
+  with replacing(path) as tmp, open(tmp, "w") as f:
+    f.write(text)
+    f.flush()
+    os.fsync(f.fileno())
+
+
+def copy(source: str, path: str) -> None:
+  """Copy the file `source` to `path`, atomically and durably."""
+  with replacing(path) as tmp:
+    shutil.copyfile(source, tmp)
+    with open(tmp, "rb+") as f:
+      os.fsync(f.fileno())
 
 
 def read_json(path: str):

@@ -24,7 +24,7 @@ from soe_jax.policies import frames
 from soe_jax.policies import normalizer as normalizer_lib
 from soe_jax.policies.agent import Agent
 from soe_jax.policies.policy import Policy, make_policy
-from soe_jax.runtime import atomic
+from soe_jax.runtime import atomic, faults
 from soe_jax.train import train_state
 
 STATE_DIR = "state"
@@ -66,16 +66,18 @@ def abstract_state(config: ml_collections.ConfigDict, policy: Policy) -> train_s
 
 
 def save(directory: str, state: train_state.TrainState, config: ml_collections.ConfigDict, spec: PolicySpec) -> None:
-  """Write `state`, `spec` and `config` under `directory` (replacing what was there)."""
+  """Write `state`, `spec` and `config` under `directory`, replacing what was there: all of it into a
+  temporary directory beside it, renamed into place once complete (the write site "checkpoint")."""
   directory = os.path.abspath(directory)
-  os.makedirs(directory, exist_ok=True)
-  with ocp.StandardCheckpointer() as checkpointer:  # closed on exit: its writes finished, its threads gone
-    checkpointer.save(os.path.join(directory, STATE_DIR), jax.device_get(state), force=True)
-  with open(os.path.join(directory, FORMAT_FILE), "w") as f:
-    json.dump({"format": FORMAT}, f)
-  spec_lib.save(directory, spec)
-  # Last: a checkpoint with a config is complete.
-  atomic.write_json(os.path.join(directory, CONFIG_FILE), json.loads(config.to_json()))
+  os.makedirs(os.path.dirname(directory), exist_ok=True)
+  with faults.site("checkpoint"), atomic.replacing(directory) as tmp:
+    os.makedirs(tmp)
+    with ocp.StandardCheckpointer() as checkpointer:  # closed on exit: its writes finished, its threads gone
+      checkpointer.save(os.path.join(tmp, STATE_DIR), jax.device_get(state))
+    with open(os.path.join(tmp, FORMAT_FILE), "w") as f:
+      json.dump({"format": FORMAT}, f)
+    spec_lib.save(tmp, spec)
+    atomic.write_json(os.path.join(tmp, CONFIG_FILE), json.loads(config.to_json()))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -2,7 +2,9 @@
 step holding the train state and the fit's progress (steps done, the loss history) together, in a
 temporary directory renamed into place once complete; the last two steps are kept, and a resumed fit
 takes the newest complete one. So state and progress cannot disagree, and a kill in the middle of a save
-(SIGKILL, out of memory, the second Ctrl-C) leaves the step before it.
+(SIGKILL, out of memory, the second Ctrl-C) leaves the step before it. The save runs in orbax's
+background thread while this one waits for it: the write site "partial_fit", whose `during` point is
+that wait.
 """
 
 from __future__ import annotations
@@ -12,6 +14,8 @@ import shutil
 
 import jax
 import orbax.checkpoint as ocp
+
+from soe_jax.runtime import faults
 
 KEEP = 2
 
@@ -24,15 +28,16 @@ class PartialFit:
 
   def _manager(self) -> ocp.CheckpointManager:
     options = ocp.CheckpointManagerOptions(max_to_keep=KEEP, cleanup_tmp_directories=True,
-                                           enable_async_checkpointing=False)  # fmt: skip
+                                           enable_async_checkpointing=True)  # fmt: skip
     return ocp.CheckpointManager(self.directory, options=options)
 
   def save(self, state, done: int, history: list[dict]) -> None:
     """The state after step `done`, with the progress, as one step (complete when this returns)."""
-    with self._manager() as manager:
+    with faults.site("partial_fit"), self._manager() as manager:
       args = ocp.args.Composite(state=ocp.args.StandardSave(jax.device_get(state)),
                                 progress=ocp.args.JsonSave(dict(done=int(done), history=history)))  # fmt: skip
       manager.save(int(done), args=args, force=True)
+      faults.during()
       manager.wait_until_finished()
 
   def latest(self) -> int | None:
