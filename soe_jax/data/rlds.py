@@ -119,11 +119,19 @@ def write(path: str, sets: list[EpisodeSet], meta: dict) -> None:
 
 def read(path: str) -> tuple[list[EpisodeSet], dict]:
   """A dataset written by `write` (the directory given to it) -> (its groups in order of first
-  appearance, the writer's metadata)."""
+  appearance, the writer's metadata). One that cannot be read (missing, damaged or truncated files, a
+  different schema) is a `ValueError` naming it."""
   tfds = _tfds()
   version_dir = os.path.join(path, NAME, VERSION)
   if not os.path.isdir(version_dir):
     raise ValueError(f"{path!r} holds no RLDS dataset {NAME}/{VERSION} (not written by this exporter)")
+  try:
+    return _read(tfds, version_dir)
+  except Exception as e:  # tfds', array_record's, protobuf's or JSON's errors
+    raise ValueError(f"RLDS dataset {path!r} cannot be read: {type(e).__name__}: {str(e)[:300]}") from e
+
+
+def _read(tfds, version_dir: str) -> tuple[list[EpisodeSet], dict]:
   source = tfds.builder_from_directory(version_dir).as_data_source()["train"]
   groups: dict[tuple, list] = {}
   meta = {}

@@ -60,7 +60,8 @@ def _write(root, sets, episodes, meta) -> None:
 
 def read(path: str) -> tuple[list[EpisodeSet], dict]:
   """The episodes of a zarr group in this layout -> (their sets by source and steering, in order of
-  first appearance; the writer's metadata)."""
+  first appearance; the writer's metadata). A store that cannot be read (not a zarr group, damaged
+  metadata or chunks, arrays of the wrong lengths) is a `ValueError` naming it."""
   zarr = _zarr()
   if not os.path.exists(path):
     raise FileNotFoundError(f"zarr store {path!r} does not exist")
@@ -70,6 +71,15 @@ def read(path: str) -> tuple[list[EpisodeSet], dict]:
     raise ValueError(
       f"zarr store {path!r} is not a zarr group (not Diffusion Policy's replay-buffer layout): {e}"
     ) from e
+  try:
+    return _read(path, root)
+  except ValueError:
+    raise
+  except Exception as e:  # a damaged chunk or metadata: numcodecs', zarr's or numpy's errors
+    raise ValueError(f"zarr store {path!r} is damaged: {type(e).__name__}: {e}") from e
+
+
+def _read(path: str, root) -> tuple[list[EpisodeSet], dict]:
   for group, key in (("meta", "episode_ends"), ("data", "action")):
     if group not in root or key not in root[group]:
       raise ValueError(f"zarr store {path!r} has no {group}/{key} (not Diffusion Policy's replay-buffer layout)")
@@ -79,6 +89,10 @@ def read(path: str) -> tuple[list[EpisodeSet], dict]:
   arrays = {k: np.asarray(data[k][:]) for k in data.keys()}
   obs_keys = [k for k in arrays if k not in ("action", "state") and not k.startswith("next_")]
   n = len(ends)
+  if n == 0 or any(len(v) != ends[-1] for v in arrays.values()) or np.any(np.diff(starts) < 0):
+    raise ValueError(
+      f"zarr store {path!r}: its data arrays are not all meta/episode_ends[-1] long, or it has no episodes"
+    )
   source = np.asarray(m["episode_source"][:]) if "episode_source" in m else np.zeros(n, np.int64)
   steered = np.asarray(m["episode_steered"][:]) if "episode_steered" in m else np.zeros(n, bool)
   success = np.asarray(m["episode_success"][:]) if "episode_success" in m else np.ones(n, bool)

@@ -1,4 +1,5 @@
-"""Every reader of a file from outside (robomimic HDF5, a LeRobotDataset, a config file), given one that is
+"""Every reader of a file from outside (robomimic HDF5, a LeRobotDataset, a zarr replay buffer, an RLDS
+dataset, a config file), given one that is
 empty, truncated, damaged inside, of the wrong layout, a directory or missing, refuses it with one message
 naming the file (a `ValueError`; the commands print it on one line and exit with status 2)."""
 
@@ -11,7 +12,8 @@ import h5py
 import numpy as np
 import pytest
 
-from soe_jax.data import hdf5, lerobot
+from soe_jax.data import hdf5, lerobot, rlds, zarr_store
+from soe_jax.data.episodes import EpisodeSet
 from soe_jax.runtime import configfile
 
 EPISODE = dict(obs={"x": np.arange(30, dtype=np.float32).reshape(10, 3)}, actions=np.zeros((10, 4), np.float32))
@@ -75,6 +77,60 @@ def test_lerobot(tmp_path, how):
     shutil.rmtree(root)
   with pytest.raises(lerobot.DatasetError, match=str(tmp_path / "data")):
     lerobot.read_dataset(root)
+
+
+FULL = dict(EPISODE, next_obs=EPISODE["obs"], states=np.zeros((10, 5)))
+
+
+def _damage_files(root: str, how: str, pick) -> None:
+  """Damage the files under `root` that `pick(name)` chooses: emptied, cut in half or partly overwritten."""
+  for parent, _, files in os.walk(root):
+    for name in files:
+      if pick(name):
+        path = os.path.join(parent, name)
+        if how == "damaged inside":
+          b = bytearray(open(path, "rb").read())
+          at = min(400, len(b) // 4)  # (an RLDS record file's data, before its zero padding)
+          b[at : at + 64] = np.random.default_rng(0).bytes(len(b[at : at + 64]))
+          open(path, "wb").write(bytes(b))
+        else:
+          _damage(path, how)
+
+
+@pytest.mark.parametrize("how", ["metadata empty", "metadata truncated", "chunks truncated", "chunks damaged inside",
+                                 "wrong layout", "a file", "missing"])  # fmt: skip
+def test_zarr(tmp_path, how):
+  path = str(tmp_path / "replay.zarr")
+  if how == "a file":
+    open(path, "w").write("x")
+  elif how != "missing":
+    zarr_store.write(path, [EpisodeSet([FULL], 0)], {"env_name": "lift"})
+    if how == "wrong layout":
+      shutil.rmtree(os.path.join(path, "meta"))
+    elif how.startswith("metadata"):
+      _damage_files(path, how.split()[1], lambda name: name.startswith(".z"))
+    else:
+      _damage_files(path, how.split(maxsplit=1)[1], lambda name: not name.startswith("."))
+  error = FileNotFoundError if how == "missing" else ValueError
+  with pytest.raises(error, match="replay.zarr"):
+    zarr_store.read(path)
+
+
+@pytest.mark.parametrize("how", ["records truncated", "records damaged inside", "records empty", "schema empty",
+                                 "wrong layout", "missing"])  # fmt: skip
+def test_rlds(tmp_path, how):
+  path = str(tmp_path / "rlds")
+  if how != "missing":
+    rlds.write(path, [EpisodeSet([FULL], 0)], {"env_name": "lift"})
+    if how == "wrong layout":
+      shutil.rmtree(os.path.join(path, rlds.NAME))
+      os.makedirs(os.path.join(path, rlds.NAME))
+    elif how.startswith("records"):
+      _damage_files(path, how.split(maxsplit=1)[1], lambda name: "array_record" in name)
+    else:
+      _damage_files(path, "empty", lambda name: name == "features.json")
+  with pytest.raises(ValueError, match=str(tmp_path / "rlds")):
+    rlds.read(path)
 
 
 @pytest.mark.parametrize("how", ["empty", "not Python", "binary", "no get_config", "a directory", "missing"])
