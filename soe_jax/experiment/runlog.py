@@ -148,13 +148,18 @@ class RunLog:
     text = json.dumps(record) + "\n"
     with faults.site("metrics_line"):
       with open(self.path, "a") as f:
-        half = len(text) // 2
-        for i, part in enumerate((text[:half], text[half:])):
-          f.write(part)
-          f.flush()
-          os.fsync(f.fileno())
-          if i == 0:
-            faults.during()
+        size = f.tell()
+        try:
+          half = len(text) // 2
+          for i, part in enumerate((text[:half], text[half:])):
+            f.write(part)
+            f.flush()
+            os.fsync(f.fileno())
+            if i == 0:
+              faults.during()
+        except OSError:  # a full disk: no half line left behind
+          f.truncate(size)
+          raise
       for k, v in record.items():
         if isinstance(v, (int, float)) and not isinstance(v, bool) and k != "round":
           self.writer.add_scalar(f"{record['phase']}/{k}", v, record["round"])

@@ -22,10 +22,10 @@ def replacing(path: str, suffix: str = "") -> Iterator[str]:
   tmp = f"{path}.tmp-{os.getpid()}{suffix}"
   try:
     yield tmp
+    faults.during()
   except BaseException:
     _remove(tmp)
     raise
-  faults.during()
   if os.path.isdir(path) and not os.path.islink(path):
     shutil.rmtree(path)
   os.replace(tmp, path)

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from soe_jax.data import hdf5
-from soe_jax.runtime import atomic, cli
+from soe_jax.experiment import runlog
+from soe_jax.runtime import atomic, cli, faults
 
 
 def _full(*args, **kwargs):
@@ -51,3 +52,18 @@ def test_a_command_on_a_full_disk_says_so_in_one_line(capsys):
   err = capsys.readouterr().err.strip().splitlines()
   assert e.value.code == 2 and len(err) == 1
   assert err[0].startswith("error: runs/x/metrics.jsonl: no space left on the device")
+
+
+def _full_midway(monkeypatch):
+  """The disk fills in the middle of the next write (at its `faults.during()` point)."""
+  monkeypatch.setattr(faults, "during", _full)
+
+
+def test_a_metrics_line_on_a_full_disk(tmp_path, monkeypatch):
+  with runlog.RunLog(str(tmp_path)) as log:
+    log.write(dict(round=0, phase="fit", time_total_s=1.0, time_compile_s=0.0))
+    before = (tmp_path / "metrics.jsonl").read_bytes()
+    _full_midway(monkeypatch)
+    with pytest.raises(OSError):
+      log.write(dict(round=0, phase="evaluate", time_total_s=1.0, time_compile_s=0.0))
+  assert (tmp_path / "metrics.jsonl").read_bytes() == before  # not half a line
