@@ -33,7 +33,7 @@ from soe_jax.experiment import rundir, runlog, validation
 from soe_jax.experiment.phases import Experiment
 from soe_jax.experiment.rundir import RunDir
 from soe_jax.experts import collect
-from soe_jax.runtime import atomic, faults, locking
+from soe_jax.runtime import atomic, faults, hosts, locking
 from soe_jax.train import normalization
 
 
@@ -84,7 +84,11 @@ def opened(config: ml_collections.ConfigDict, workdir: str, progress: bool = Tru
   says whether it starts, resumes or has finished. (`run`, and the benchmarks that run phases.)"""
   print(f"workdir {workdir}: {rundir.status(workdir, config)}", flush=True)
   run_dir = RunDir.create(workdir, config)
-  wandb = runlog.WandbLog(workdir, rundir.plain(config), config.log.wandb_project) if config.log.wandb else None
+  wandb = (
+    runlog.WandbLog(workdir, rundir.plain(config), config.log.wandb_project)
+    if config.log.wandb and hosts.writer()
+    else None
+  )
   with runlog.RunLog(workdir, wandb) as log:
     exp = Experiment(config, run_dir, progress, log)
     try:

@@ -15,7 +15,7 @@ import jax
 import numpy as np
 from tensorboardX import SummaryWriter
 
-from soe_jax.runtime import faults, provenance
+from soe_jax.runtime import faults, hosts, provenance
 from soe_jax.runtime.errors import UserError
 
 _COMPILE_EVENTS = (
@@ -127,8 +127,8 @@ class RunLog:
 
   def __init__(self, workdir: str, wandb: WandbLog | None = None):
     self.path = os.path.join(workdir, "metrics.jsonl")
-    self.logged = {(m["round"], m["phase"]) for m in read_metrics(workdir, repair=True)}
-    self.writer = SummaryWriter(os.path.join(workdir, "tb"))
+    self.logged = {(m["round"], m["phase"]) for m in read_metrics(workdir, repair=hosts.writer())}
+    self.writer = SummaryWriter(os.path.join(workdir, "tb")) if hosts.writer() else None
     self.wandb = wandb
 
   def __enter__(self) -> RunLog:
@@ -144,32 +144,37 @@ class RunLog:
 
   def write(self, record: dict) -> None:
     """Append one phase's record (and its numbers to TensorBoard, stepped by round): the write site
-    "metrics_line", whose `during` point has half the line on disk (a torn line, `read_metrics`)."""
-    text = json.dumps(record) + "\n"
+    "metrics_line", whose `during` point has half the line on disk (a torn line, `read_metrics`). A
+    host other than the writer (`hosts`) only prints it."""
     with faults.site("metrics_line"):
-      with open(self.path, "a") as f:
-        size = f.tell()
-        try:
-          half = len(text) // 2
-          for i, part in enumerate((text[:half], text[half:])):
-            f.write(part)
-            f.flush()
-            os.fsync(f.fileno())
-            if i == 0:
-              faults.during()
-        except OSError:  # a full disk: no half line left behind
-          f.truncate(size)
-          raise
-      for k, v in record.items():
-        if isinstance(v, (int, float)) and not isinstance(v, bool) and k != "round":
-          self.writer.add_scalar(f"{record['phase']}/{k}", v, record["round"])
-      self.writer.flush()
+      if self.writer is not None:
+        self._append(json.dumps(record) + "\n")
+        for k, v in record.items():
+          if isinstance(v, (int, float)) and not isinstance(v, bool) and k != "round":
+            self.writer.add_scalar(f"{record['phase']}/{k}", v, record["round"])
+        self.writer.flush()
     if self.wandb is not None:
       self.wandb.log(record)
     print(summary_line(record), flush=True)
 
+  def _append(self, text: str) -> None:
+    with open(self.path, "a") as f:
+      size = f.tell()
+      try:
+        half = len(text) // 2
+        for i, part in enumerate((text[:half], text[half:])):
+          f.write(part)
+          f.flush()
+          os.fsync(f.fileno())
+          if i == 0:
+            faults.during()
+      except OSError:  # a full disk: no half line left behind
+        f.truncate(size)
+        raise
+
   def close(self) -> None:
-    self.writer.close()
+    if self.writer is not None:
+      self.writer.close()
     if self.wandb is not None:
       self.wandb.close()
 

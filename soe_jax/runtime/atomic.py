@@ -11,14 +11,15 @@ import shutil
 import sys
 from collections.abc import Iterator
 
-from soe_jax.runtime import faults
+from soe_jax.runtime import faults, hosts
 
 
 @contextlib.contextmanager
 def replacing(path: str, suffix: str = "") -> Iterator[str]:
   """Yield a temporary path to write to; on success it replaces `path` (a file or a directory), on an
   error it is removed. `suffix`: the temporary name's ending, for writers that go by it (".mp4"). The
-  moment before the rename is the enclosing write site's `faults.during()`."""
+  moment before the rename is the enclosing write site's `faults.during()`. On a host other than the
+  writer (`hosts`), the temporary path is written and removed, and `path` is left alone."""
   tmp = f"{path}.tmp-{os.getpid()}{suffix}"
   try:
     yield tmp
@@ -26,6 +27,9 @@ def replacing(path: str, suffix: str = "") -> Iterator[str]:
   except BaseException:
     _remove(tmp)
     raise
+  if not hosts.writer():
+    _remove(tmp)
+    return
   if os.path.isdir(path) and not os.path.islink(path):
     shutil.rmtree(path)
   os.replace(tmp, path)
@@ -38,6 +42,8 @@ def remove_stale(directory: str) -> list[str]:
   """Remove the temporary files and directories under `directory` that a killed writer left (`replacing`'s
   names, whose process is gone) -> their paths. Those of a live process are its writes in progress."""
   removed = []
+  if not hosts.writer():  # (another host's process ids mean nothing here)
+    return removed
   for parent, dirs, files in os.walk(directory):
     for name in dirs + files:
       if (m := _TEMPORARY.search(name)) and not _alive(int(m.group(1))):

@@ -8,6 +8,8 @@ Every file a resumed run or campaign reads back, or leaves as its result, is wri
     faults.during()      # the new content written, not yet in place (or half a line appended)
     ...                  # rename into place
 
+A site is also where the processes of a multi-host run meet once the write is done (`hosts`).
+
 `during()` goes where a kill hurts most: before an atomic write's rename, in the middle of an appended
 line, inside an orbax save before it finalises. Normally these marks do nothing. Two environment
 variables turn them on, for the kill-anywhere tests (`tests/runtime/test_kill_anywhere.py`):
@@ -25,6 +27,8 @@ import contextlib
 import os
 import signal
 from collections.abc import Iterator
+
+from soe_jax.runtime import hosts
 
 WHEN = ("before", "during", "after")
 
@@ -83,6 +87,7 @@ def site(name: str) -> Iterator[None]:
   finally:
     _active.pop()
   point(name, "after")
+  hosts.barrier(f"wrote {name}")
 
 
 def during() -> None:

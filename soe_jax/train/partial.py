@@ -15,7 +15,7 @@ import shutil
 import jax
 import orbax.checkpoint as ocp
 
-from soe_jax.runtime import faults
+from soe_jax.runtime import faults, hosts
 
 KEEP = 2
 
@@ -60,4 +60,5 @@ class PartialFit:
     return restored["state"], int(progress["done"]), list(progress["history"])
 
   def clear(self) -> None:
-    shutil.rmtree(self.directory, ignore_errors=True)
+    if hosts.writer():
+      shutil.rmtree(self.directory, ignore_errors=True)

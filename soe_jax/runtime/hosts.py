@@ -1,0 +1,42 @@
+"""Several hosts, one set of files: in a multi-host run (`jax.distributed`, `sharding`) every process
+computes the same run in step, and only process 0 writes. The others' writes go to their temporary
+names and are dropped there (`atomic.replacing`), so they run every line of the same code, orbax's
+collective saves included, and never touch a file. After each write site (`faults.site`) the processes
+meet, so what process 0 wrote is there for every process's next read: the run directory must be on a
+file system all hosts see.
+
+Without jax imported, or with one process, this process is the writer and a barrier is nothing.
+"""
+
+from __future__ import annotations
+
+import itertools
+import sys
+
+_barriers = itertools.count()
+
+
+def _jax():
+  return sys.modules.get("jax")
+
+
+def count() -> int:
+  """The number of processes in the run (1 without jax)."""
+  jax = _jax()
+  return 1 if jax is None else jax.process_count()
+
+
+def writer() -> bool:
+  """Whether this process writes the run's files (process 0)."""
+  jax = _jax()
+  return jax is None or jax.process_index() == 0
+
+
+def barrier(name: str, timeout_s: float = 24 * 3600) -> None:
+  """Wait until every process has reached the barrier `name` (nothing with one process). Every process
+  passes the same barriers in the same order; `timeout_s` long, for a wait on another run's lock."""
+  if count() == 1:
+    return
+  from jax._src import distributed  # the coordination service's barrier: no collective, no 30 s timeout
+
+  distributed.global_state.client.wait_at_barrier(f"soe_jax {next(_barriers)} {name}", int(timeout_s * 1000))
