@@ -165,7 +165,7 @@ def latent_table(records: Records) -> str:
     lat, ex = r["latent"], r["explore"]
     ref = firsts[paired(r)]
     c = metrics.paired_comparison(by_name[ref]["explore"]["success"], ex["success"])
-    vs = "-" if ref == name else f"{c['gained']} / {c['lost']} (p={c['p_value']:.3f})"
+    vs = "-" if ref == name else f"{c['gained']} / {c['lost']} (p={c['p_value']:.2g})"
     r0 = r.get("round0")  # (records before round 0's evaluation was part of them: '-')
     r0 = "-" if r0 is None else f"{pct(r0['success_rate'])} (n={r0['num_rollouts']})"
     noise = f"{np.median(lat['noise_db']):.1f} dB" if "noise_db" in lat else "-"  # (recorded since the KL ablation)
@@ -214,7 +214,7 @@ def round0_table(records: Records) -> str:
   """A run's round 0 per record (`fit`, `evaluate`), each paired with the first record's evaluation."""
   first = records[0][1]["evaluate"]["success"]
   rows = []
-  for name, r in records:
+  for i, (name, r) in enumerate(records):
     fit, ev = r["fit"], r["evaluate"]
     c = metrics.paired_comparison(first, ev["success"])
     rows.append([
@@ -225,7 +225,7 @@ def round0_table(records: Records) -> str:
       f"{fit['final_loss']:.4f}",
       rate(ev),
       pct(ev["obs_out_of_range"]) if "obs_out_of_range" in ev else "-",
-      f"{c['gained']} / {c['lost']} (p={c['p_value']:.3f})",
+      f"{c['gained']} / {c['lost']} (p={c['p_value']:.2g})" if i else "-",
     ])  # fmt: skip
   header = ["record", "inputs", "commit", "fit (compile)", "final loss", "success", "obs. features out of range",
             "vs first: gained / lost (p)"]  # fmt: skip
