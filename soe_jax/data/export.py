@@ -63,8 +63,15 @@ def _meta(env_args: dict) -> dict:
 def read_robomimic(path: str) -> tuple[list[EpisodeSet], dict]:
   """A file with this exporter's filter keys -> its groups; any other file -> one group of all its
   episodes, as demonstrations."""
-  with h5py.File(path, "r") as f:
-    keys = sorted(f["mask"].keys()) if "mask" in f else []
+  try:
+    with h5py.File(path, "r") as f:
+      keys = sorted(f["mask"].keys()) if "mask" in f else []
+  except FileNotFoundError:
+    raise
+  except OSError as e:
+    raise ValueError(f"{path!r} is not a readable HDF5 file: {e}") from None
+  except (KeyError, RuntimeError) as e:
+    raise ValueError(f"{path!r} is damaged: {type(e).__name__}: {e}") from None
   groups = [k for k in keys if k == "demos" or re.fullmatch(r"(round|steered)_\d+", k)]
   if not groups:
     episodes, env_args = hdf5.read_episodes(path)

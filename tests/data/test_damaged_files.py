@@ -12,7 +12,7 @@ import h5py
 import numpy as np
 import pytest
 
-from soe_jax.data import hdf5, lerobot, rlds, zarr_store
+from soe_jax.data import export, hdf5, lerobot, rlds, zarr_store
 from soe_jax.data.episodes import EpisodeSet
 from soe_jax.runtime import configfile
 
@@ -49,6 +49,8 @@ def test_hdf5(tmp_path, how):
   error = FileNotFoundError if how == "missing" else ValueError
   with pytest.raises(error, match="demos.hdf5"):
     hdf5.read_episodes(path)
+  with pytest.raises(error, match="demos.hdf5"):  # (`inspect`'s reader)
+    export.load(path)
 
 
 @pytest.mark.parametrize("how", ["info empty", "info not JSON", "data truncated", "data damaged", "no episode rows",
