@@ -32,6 +32,10 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
 - with any method, the control too, each with a round 0 of its own: `range=demonstrations`
   (`policy.action_range`) and `frame=chunk_relative` (`policy.action_frame`, relative actions, which
   need `range=demonstrations`);
+- `protocol=sime`, with any method, the control too: SIME's setup, which the paper's simulation
+  experiments follow (`schema.PROTOCOLS`): one observation step, 20-step chunks executed whole,
+  `train_0.5` selection, every round re-trained from fresh parameters with round 0's recipe
+  (`method` gains `-protocol_sime`; its round 0 is its own);
 - `head=NAME` (diffusion_unet, flow_unet, mlp);
 - `image`: the paper's simulation observations, the agent-view and in-hand cameras' 84 x 84 images
   beside the robot's own low-dim state, without the simulator's object vector (`env.obs_mode`,
@@ -51,11 +55,11 @@ import ml_collections
 
 from soe_jax.envs import registry as env_registry
 from soe_jax.experiment import sections as config_sections
-from soe_jax.experiment.schema import ANY_METHOD_VARIANTS, EXPLORERS, METHODS, VARIANTS
+from soe_jax.experiment.schema import ANY_METHOD_VARIANTS, EXPLORERS, METHODS, PROTOCOLS, VARIANTS
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.policies.nets.resnet import RESNET18_WIDTHS
 
-PRESETS = ("smoke", "cpu", "head", "image", "expert_data") + tuple(VARIANTS) + METHODS
+PRESETS = ("smoke", "cpu", "head", "image", "expert_data", "protocol") + tuple(VARIANTS) + METHODS
 # The image encoder's trunk widths under `cpu,image` and `smoke,image` (ResNet-18's otherwise).
 CPU_IMAGE_WIDTHS = (16, 32, 64, 128)
 SMOKE_IMAGE_WIDTHS = (8, 8, 16, 16)
@@ -249,4 +253,12 @@ def apply_presets(
       kwargs = c.policy.head.kwargs.to_dict()
       kwargs.pop("sampler")
       c.policy.head.kwargs = ml_collections.ConfigDict(kwargs)
+  if "protocol" in presets:
+    name = presets["protocol"]
+    if name not in PROTOCOLS:
+      raise ValueError(f"unknown protocol {name!r}; known protocols: {', '.join(PROTOCOLS)}")
+    for field, value in PROTOCOLS[name].items():
+      *sections, key = field.split(".")
+      functools.reduce(getattr, sections, c)[key] = value
+    c.method = f"{c.method}-protocol_{name}"
   return c

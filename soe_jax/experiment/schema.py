@@ -108,3 +108,16 @@ VARIANTS = {
 }
 # Variants that go with any method, the control too (the others change how a method explores).
 ANY_METHOD_VARIANTS = ("range", "frame")
+# Experiment protocols (`protocol=NAME`, any method, the control too): name -> the fields it sets, over
+# every other preset's. `sime`: SIME's setup (specs/sime_baseline.md), which the paper's simulation
+# experiments follow: one observation step, a 20-step chunk executed whole, `train_0.5` selection, and
+# every round re-trained from freshly initialised parameters with round 0's recipe.
+PROTOCOLS = {
+  "sime": {
+    "policy.n_obs_steps": 1,
+    "policy.horizon": 20,
+    "policy.n_action_steps": 20,
+    "rounds.select": "sime",
+    "rounds.refit": "scratch",
+  },
+}

@@ -349,3 +349,27 @@ def test_a_policy_of_relative_poses_runs_and_acts_in_absolute_poses(tmp_path):
   fit0 = json.load(open(RunDir(str(tmp_path / "rel"), config).phase_path(0, "fit")))
   assert 0.0 <= fit0["actions_clipped"] < 0.05
   assert np.mean(_evaluated(str(tmp_path / "rel"), 1)) > 0.2
+
+
+def test_the_sime_protocol_retrains_each_round_from_fresh_parameters(toy_run):
+  """`protocol=sime`: one observation step, 20-step chunks executed whole, SIME's selection, and round 1
+  fitted from freshly initialised parameters (round 1's own initialisation key) with round 0's
+  recipe. At a learning rate of 1e-30 a fit leaves its starting parameters: round 1's are then its
+  fresh initialisation, not round 0's."""
+  root, _, _ = toy_run
+  config = toy.get_config("smoke,soe,protocol=sime")
+  assert config.method == "soe-protocol_sime"
+  assert (config.policy.n_obs_steps, config.policy.horizon, config.policy.n_action_steps) == (1, 20, 20)
+  assert (config.rounds.select, config.rounds.refit) == ("sime", "scratch")
+  config.rounds.num_rounds = 1
+  config.fit.lr = 1e-30
+  workdir = str(root / "toy-protocol-sime")
+  loop.run(config, workdir, progress=False)
+  run = RunDir(workdir, config)
+  fit1 = json.load(open(run.phase_path(1, "fit")))
+  assert fit1["steps"] == config.fit.num_steps  # round 0's recipe, not refit_steps
+  exp = phases.Experiment(config, run, progress=False)
+  fresh = exp.policy.init(jax.random.fold_in(exp.key(1, phases._FIT), 0))
+  round0, round1 = (checkpoint.load(run.ckpt_dir(r)).state.params for r in (0, 1))
+  chex.assert_trees_all_close(round1, fresh, atol=1e-12)
+  assert max(float(np.abs(a - b).max()) for a, b in zip(jax.tree.leaves(round0), jax.tree.leaves(round1))) > 1e-3
