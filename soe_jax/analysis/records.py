@@ -265,6 +265,24 @@ def serve_table(records: Records) -> str:
 
 
 TABLES.register("serve", serve_table)
+
+
+def demo_styles_table(records: Records) -> str:
+  """`experts --measure` records: how varied each demonstrator's episodes are (`analysis.demo_styles`)."""
+  rows = []
+  for name, r in records:
+    v = r["variety"]
+    met = ", ".join(k for k, ok in v["thresholds_met"].items() if ok) or "none"
+    rows.append([name, r["task"], r["style"], f"{pct(v['success_rate'])} of {r['num_episodes']}",
+                 f"{pct(v['arc_left'])} / {pct(v['arc_right'])}", f"{pct(v['face_0'])} / {pct(v['face_1'])}",
+                 f"{v['path_cv']:.3f}", pct(v["paused"]), f"{v['length_mean']:.1f} ± {v['length_std']:.1f}", met,
+                 r["commit"]])  # fmt: skip
+  header = ["record", "task", "style", "success", "arced left / right", "faces 0 / 1", "path length CV", "paused",
+            "length (steps)", "thresholds met", "commit"]  # fmt: skip
+  return markdown(header, rows)
+
+
+TABLES.register("demo_styles", demo_styles_table)
 TABLES.register("fidelity", lambda records: fidelity.table([run for _, r in records for run in r["runs"]]))
 TABLES.register("action_range", lambda records: action_range.table([s for _, r in records for s in r["seeds"]]))
 

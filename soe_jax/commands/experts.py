@@ -2,10 +2,14 @@
 or, with --workspace, the task's workspace box (`experts.workspace`).
 
   python -m soe_jax experts --task=square --num_episodes=200 --seed=0 [--out=demos/square.hdf5]
+      [--style=varied] [--measure [--record=results/demo-styles/NAME.json]]
   python -m soe_jax experts --task=square --workspace --num_episodes=1000 --seed=90001
 
 The last line printed is one JSON object: task, num_episodes, success_rate, mean_length (over
-successful episodes), backend, seconds (and out, num_saved with --out); with --workspace: task,
+successful episodes), backend, seconds (and out, num_saved with --out; with --measure, `variety`: the
+share of arced approaches to each side, of each grasp face, the path length's coefficient of
+variation, the share that paused, length mean and std, and which thresholds of a varied demonstrator
+hold, `analysis/demo_styles.py`); with --workspace: task,
 num_episodes, seed, margin, commanded and box (per robot [lo, hi]), expert_success_rate.
 """
 
@@ -13,10 +17,11 @@ from __future__ import annotations
 
 import json
 
+from soe_jax.analysis import record
 from soe_jax.envs import backends
 from soe_jax.experts import collect, workspace
 from soe_jax.experts import registry as expert_registry
-from soe_jax.runtime import cli
+from soe_jax.runtime import cli, provenance
 from soe_jax.runtime.errors import UserError
 
 FLAGS = cli.Flags()
@@ -27,6 +32,9 @@ FLAGS.string("out", None, "Write the successful episodes to this HDF5 file.")
 FLAGS.boolean("workspace", False, "Print the task's workspace box (positions commanded, widened) instead.")
 FLAGS.float("margin", workspace.MARGIN, "With --workspace: metres added on each side.", lower_bound=0.0)
 FLAGS.enum("backend", "auto", ["auto", *backends.BACKENDS.names()], "Physics backend.")
+FLAGS.enum("style", "scripted", list(expert_registry.STYLES), "The demonstrator: scripted, or with human-like styles.")
+FLAGS.boolean("measure", False, "Measure how varied the demonstrations are (`variety` in the JSON).")
+FLAGS.string("record", None, "With --measure: also write the result as a record for results/ (kind demo_styles).")
 
 
 def _run(argv: list[str]) -> None:
@@ -36,7 +44,14 @@ def _run(argv: list[str]) -> None:
       raise UserError("--workspace prints a box and writes no episodes: drop --out")
     print(json.dumps(workspace.derive(FLAGS.task, FLAGS.num_episodes, FLAGS.seed, FLAGS.margin, FLAGS.backend)))
     return
-  print(json.dumps(collect.record(FLAGS.task, FLAGS.num_episodes, FLAGS.seed, FLAGS.out, FLAGS.backend)))
+  if FLAGS.record and not FLAGS.measure:
+    raise UserError("--record writes what --measure measures: add --measure")
+  source = provenance.header()
+  result = collect.record(FLAGS.task, FLAGS.num_episodes, FLAGS.seed, FLAGS.out, FLAGS.backend, FLAGS.style,
+                          FLAGS.measure)  # fmt: skip
+  if FLAGS.record:
+    record.write_record(dict(source, **result), FLAGS.record, "demo_styles")
+  print(json.dumps(result))
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -47,7 +47,7 @@ def demonstrations(config: ml_collections.ConfigDict, env, progress: bool) -> li
       held = f"{path}{f' (filter key {key!r})' if key else ''} holds {len(found)} episodes"
       raise ValueError(f"{held}; data.num_demos asks for {n}")
     return found[:n]
-  return collect.demonstrations(env, n, int(config.data.demo_seed), progress)
+  return collect.demonstrations(env, n, int(config.data.demo_seed), progress, config.data.demo_style)
 
 
 def round0(exp: Experiment) -> tuple:

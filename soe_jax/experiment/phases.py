@@ -147,7 +147,7 @@ class Experiment:
     rec = dict(rec, explored_episodes=rec["num_episodes"], num_episodes=0, expert_success_rate=None)
     if n == 0:
       return rec, []
-    expert = expert_registry.make_expert(self.env.name)
+    expert = expert_registry.make_expert(self.env.name, self.config.data.demo_style)
     batch = collect.run_demos(self.env, expert, reset_keys, progress=self.progress)
     ok = batch["success"].astype(bool)
     return dict(rec, num_episodes=int(ok.sum()), expert_success_rate=float(ok.mean())), collect.split_episodes(batch)

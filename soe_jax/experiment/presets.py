@@ -30,8 +30,9 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
   its latent noise), `beta=X` (the bypass's KL weight `policy.bypass.beta`, the KL ablation: the
   arm fits a round 0 of its own), `demo_fraction=X` and `aligned=true` (the re-fit's sampling);
 - with any method, the control too, each with a round 0 of its own: `range=demonstrations`
-  (`policy.action_range`) and `frame=chunk_relative` (`policy.action_frame`, relative actions, which
-  need `range=demonstrations`);
+  (`policy.action_range`), `frame=chunk_relative` (`policy.action_frame`, relative actions, which
+  need `range=demonstrations`) and `style=varied` (`data.demo_style`: demonstrations with human-like
+  styles, Lift's so far);
 - `protocol=sime`, with any method, the control too: SIME's setup, which the paper's simulation
   experiments follow (`schema.PROTOCOLS`): one observation step, 20-step chunks executed whole,
   `train_0.5` selection, every round re-trained from fresh parameters with round 0's recipe
@@ -103,10 +104,11 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
     )
   )
   # image_frames: the frames of camera images the buffer holds (image policies; their images are stored
-  # unpadded, every episode's frames one after another).
+  # unpadded, every episode's frames one after another). demo_style: the demonstrator's (scripted, or
+  # varied: human-like styles drawn per episode, `experts/`; Lift's so far).
   c.data = ml_collections.ConfigDict(
     dict(num_demos=num_demos, demo_seed=1000, hdf5_path="", filter_key="", max_length=400, capacity=2048,
-         image_frames=0)
+         image_frames=0, demo_style="scripted")
   )  # fmt: skip
   c.policy = config_sections.policy()
   c.fit = config_sections.fit()

@@ -14,7 +14,8 @@ NOT_SETTINGS = ("seed", "rounds.round0_dir")
 # What a method's run and its control may differ in: the arm itself (how it explores, what it keeps).
 # (The action range changes round 0 too; its arms pair with the control of the default range.)
 ARM = ("method", "explore.", "rounds.new_data", "rounds.select", "rounds.length_cap", "policy.action_range",
-       "rounds.demo_fraction", "rounds.aligned_windows", "policy.bypass.beta", "policy.action_frame")  # fmt: skip
+       "rounds.demo_fraction", "rounds.aligned_windows", "policy.bypass.beta", "policy.action_frame",
+       "data.demo_style")  # fmt: skip
 # Arm fields that refit round 0 but leave its base path as it is (the bypass's loss never reaches the
 # encoder or the head): an arm differing from its control there pairs with it only where their round-0
 # evaluations agree state by state.
@@ -50,6 +51,7 @@ ADDED = {
   "rounds.demo_fraction": 0.0,
   "rounds.aligned_windows": False,
   "env.object_vector": True,
+  "data.demo_style": "scripted",
 }
 # Fields a run may resume with other values in: how it is logged and watched, and MJX's batch cap.
 NOT_COMPARED = (LOGGING, "env.mjx_max_batch")
@@ -105,9 +107,10 @@ VARIANTS = {
   "aligned": ("rounds.aligned_windows", "aligned"),  # re-fit windows at decisions only
   "range": ("policy.action_range", "range_"),  # (round 0 too; any method, the control too)
   "frame": ("policy.action_frame", "frame_"),  # (round 0 too; any method, the control too)
+  "style": ("data.demo_style", "style_"),  # the demonstrator's (round 0 too; any method, the control too)
 }
 # Variants that go with any method, the control too (the others change how a method explores).
-ANY_METHOD_VARIANTS = ("range", "frame")
+ANY_METHOD_VARIANTS = ("range", "frame", "style")
 # Experiment protocols (`protocol=NAME`, any method, the control too): name -> the fields it sets, over
 # every other preset's. `sime`: SIME's setup (specs/sime_baseline.md), which the paper's simulation
 # experiments follow: one observation step, a 20-step chunk executed whole, `train_0.5` selection, and

@@ -13,6 +13,7 @@ from soe_jax.data import hdf5
 from soe_jax.envs import backends, controller, observations
 from soe_jax.envs import registry as env_registry
 from soe_jax.experiment import schema, select
+from soe_jax.experts import registry as expert_registry
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.policies import frames
 from soe_jax.policies import registry as policy_registry
@@ -89,6 +90,15 @@ def problems(config: ml_collections.ConfigDict) -> list[str]:
     out.append(f"data.capacity ({config.data.capacity}) must hold data.num_demos ({config.data.num_demos})")
   if config.log.wandb and importlib.util.find_spec("wandb") is None:
     out.append("log.wandb needs wandb, which is not installed: pip install -e '.[wandb]'")
+  style = config.data.demo_style
+  if style not in expert_registry.STYLES:
+    out.append(f"unknown data.demo_style {style!r}; known: {', '.join(expert_registry.STYLES)}")
+  elif style != "scripted" and config.data.hdf5_path:
+    out.append(f"data.demo_style={style} is a demonstrator's; with data.hdf5_path the file's demonstrations are used")
+  elif style != "scripted" and config.env.task in expert_registry.expert_names():
+    if config.env.task not in expert_registry.VARIED.names():
+      out.append(f"task {config.env.task!r} has no {style} demonstrator; tasks with one: "
+                 f"{', '.join(expert_registry.VARIED.names())}")  # fmt: skip
   if config.data.hdf5_path and not out:
     out += _demonstration_file(config)
   return out

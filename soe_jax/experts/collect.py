@@ -108,33 +108,43 @@ def split_episodes(batch: dict, only_successful: bool = True) -> list[dict]:
   )
 
 
-def demonstrations(env: ManipulationEnv, num: int, seed: int, progress: bool = True) -> list[dict]:
-  """`num` successful scripted demonstrations, from the first start states of `seed` (2 * num tried)."""
+def demonstrations(
+  env: ManipulationEnv, num: int, seed: int, progress: bool = True, style: str = "scripted"
+) -> list[dict]:
+  """`num` successful demonstrations in `style` (`experts.registry.STYLES`), from the first start states
+  of `seed` (2 * num tried)."""
   keys = jax.random.split(jax.random.key(seed), 2 * num)  # spare start states
-  batch = run_demos(env, expert_registry.make_expert(env.name), keys, progress=progress)
+  batch = run_demos(env, expert_registry.make_expert(env.name, style), keys, progress=progress)
   found = split_episodes(batch, only_successful=True)
   if len(found) < num:
     raise RuntimeError(f"the {env.name} demonstrator succeeded {len(found)} times in {2 * num} tries; need {num}")
   return found[:num]
 
 
-def record(task: str, num_episodes: int, seed: int = 0, out: str | None = None, backend: str = "auto") -> dict:
-  """Scripted demonstrations of `task` from `num_episodes` start states of `seed`, the successful ones
-  written to `out` in robomimic's HDF5 layout when given -> {task, num_episodes, success_rate,
-  mean_length (of the successful ones), backend, seconds[, out, num_saved]}."""
+def record(task: str, num_episodes: int, seed: int = 0, out: str | None = None, backend: str = "auto",
+           style: str = "scripted", measure: bool = False) -> dict:  # fmt: skip
+  """Demonstrations of `task` in `style` from `num_episodes` start states of `seed`, the successful ones
+  written to `out` in robomimic's HDF5 layout when given -> {task, style, num_episodes, success_rate,
+  mean_length (of the successful ones), backend, seconds[, out, num_saved][, variety: with `measure`,
+  `analysis.demo_styles.measure`]}."""
   env = make_env(task, backend=backend)
-  expert = expert_registry.make_expert(task)
+  expert = expert_registry.make_expert(task, style)
   start = time.time()
   batch = run_demos(env, expert, jax.random.split(jax.random.key(seed), num_episodes))
   success = batch["success"]
   result = dict(
     task=task,
+    style=style,
     num_episodes=int(num_episodes),
     success_rate=float(success.mean()),
     mean_length=float(batch["length"][success].mean()) if success.any() else None,
     backend=env.backend,
     seconds=round(time.time() - start, 2),
   )
+  if measure:
+    from soe_jax.analysis import demo_styles
+
+    result["variety"] = demo_styles.measure(batch)
   if out:
     found = split_episodes(batch)
     meta = dict(env_name=task, env_kwargs=env.config.to_dict(), source="scripted demonstrator", seed=seed)

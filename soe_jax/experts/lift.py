@@ -1,4 +1,7 @@
-"""Lift demonstrator: over the cube, down, close, lift."""
+"""Lift demonstrators: over the cube, down, close, lift. `EXPERT` is the scripted one (one path, per-episode
+speed, offsets and yaw jitter); `VARIED` adds human-like styles drawn per episode: the approach straight
+or arced to either side, the grasp on either pair of the cube's faces, the descent's own speed, and
+an occasional hover over the cube before going down."""
 
 from __future__ import annotations
 
@@ -30,6 +33,47 @@ def _cube(obs):
 def _grasp_yaw(obs, p, cmd_yaw):
   _, yaw = _cube(obs)
   return script.nearest_equivalent(yaw + p["yaw"], cmd_yaw, jnp.pi / 2)
+
+
+# The varied demonstrator's styles: the share of approaches arced to each side (the rest straight), the
+# sideways size of an arc, the share of episodes that hover over the cube, and for how long.
+ARC_SHARE = 1 / 3
+ARC_SIZE = (0.03, 0.08)
+HOVER_SHARE = 0.3
+HOVER_STEPS = (8, 20)
+
+
+def sample_varied_params(key):
+  k = jax.random.split(key, 8)
+  p = sample_params(k[0])
+  speed = uniform(k[1], 0.007, 0.018)
+  side = jax.random.choice(k[2], jnp.array([-1.0, 0.0, 1.0]), p=jnp.array([ARC_SHARE, 1 - 2 * ARC_SHARE, ARC_SHARE]))
+  hover = jax.random.uniform(k[3]) < HOVER_SHARE
+  return dict(
+    p,
+    speed=speed,
+    descend_speed=speed * uniform(k[4], 0.35, 0.9),
+    side=side,
+    arc=uniform(k[5], *ARC_SIZE),
+    face=jax.random.randint(k[6], (), 0, 2).astype(jnp.float32),  # which pair of faces the fingers close on
+    hover=jnp.where(hover, jax.random.randint(k[7], (), *HOVER_STEPS), 0),
+  )
+
+
+def above_varied(obs, p, cmd_pos, cmd_yaw):
+  cube, yaw = _cube(obs)
+  pos = cube + jnp.concatenate([p["offset"], p["height"][None]])
+  # The fingers close across either pair of faces: the cube's yaw or a quarter turn from it, each taken
+  # modulo a half turn (the two fingers are alike) nearest the hand's yaw.
+  grasp = script.nearest_equivalent(yaw + p["yaw"] + p["face"] * jnp.pi / 2, cmd_yaw, jnp.pi)
+  bend = script.arc(cmd_pos, pos, p["side"], p["arc"])
+  return target(pos, grasp, -1.0, p["speed"], hold=p["hover"], tol=0.015, bend=bend)
+
+
+def descend_varied(obs, p, cmd_pos, cmd_yaw):
+  cube, _ = _cube(obs)
+  pos = cube + jnp.concatenate([p["offset"], p["grasp_dz"][None]])
+  return target(pos, cmd_yaw, -1.0, p["descend_speed"], hold=1, tol=0.008)
 
 
 def settle(obs, p, cmd_pos, cmd_yaw):
@@ -64,3 +108,5 @@ def resume(obs):
 
 
 EXPERT = script.ScriptedExpert(plans=(settle, above, descend, close, lift), sample_params=sample_params, resume=resume)
+VARIED = script.ScriptedExpert(plans=(settle, above_varied, descend_varied, close, lift),
+                               sample_params=sample_varied_params, resume=resume)  # fmt: skip

@@ -4,7 +4,9 @@ A task's expert is a list of phases. When a phase starts, its plan function read
 the episode's random parameters and returns a target: grip-site position, yaw of a top-down grasp
 frame, gripper command, speed, and how long to hold. The commanded pose moves from where the previous
 phase left it to the target along a minimum-jerk profile, so motion is smooth; the phase ends once
-the end effector has arrived (or a timeout passes). Per-episode randomness (speed, heights, offsets,
+the end effector has arrived (or a timeout passes). A target may bend its path (`bend`: the control
+point of a quadratic Bezier curve, as an offset from the straight path's midpoint), for an arced
+approach; unbent, the path is the straight line. Per-episode randomness (speed, heights, offsets,
 waiting times) and a small smooth (AR(1)) positional noise give human-like variety.
 
 A phase may also wait for the scene (`ready`, read every step): a two-arm task runs one script per arm
@@ -44,6 +46,7 @@ class Target(NamedTuple):
   speed: jax.Array  # () m per control step along the path
   hold: jax.Array  # () int, steps to wait after arriving on schedule
   tol: jax.Array  # () m, arrival tolerance of the measured end effector
+  bend: jax.Array  # (3,) m, the path's control point off the straight path's midpoint (0: straight)
 
 
 @struct.dataclass
@@ -109,7 +112,7 @@ class ScriptedExpert:
     """Start at the first phase, or with `resume` at the phase `self.resume(obs)` names."""
     key_params, key = jax.random.split(key)
     pos, yaw = obs[f"robot{self.robot}_eef_pos"], site_yaw(obs, self.robot)
-    zero_t = Target(pos, yaw, jnp.array(-1.0), jnp.array(0.01), jnp.array(0), jnp.array(0.01))
+    zero_t = Target(pos, yaw, jnp.array(-1.0), jnp.array(0.01), jnp.array(0), jnp.array(0.01), jnp.zeros(3))
     phase = jnp.asarray(self.resume(obs), jnp.int32) if resume else jnp.array(0)
     return ExpertState(
       phase=phase,
@@ -134,11 +137,13 @@ class ScriptedExpert:
     target = jax.tree.map(lambda new, old: jnp.where(starting, new, old), planned, es.target)
     start_pos = jnp.where(starting, es.cmd_pos, es.start_pos)
     start_yaw = jnp.where(starting, es.cmd_yaw, es.start_yaw)
-    dist = jnp.linalg.norm(target.pos - start_pos) + 0.05 * jnp.abs(target.yaw - start_yaw)
+    dist = (
+      jnp.linalg.norm(target.pos - start_pos) + 0.05 * jnp.abs(target.yaw - start_yaw) + jnp.linalg.norm(target.bend)
+    )
     duration = jnp.where(starting, jnp.maximum(2, jnp.ceil(dist / target.speed)).astype(jnp.int32), es.duration)
     tau = jnp.minimum((es.t + 1) / duration, 1.0)
     s = jnp.where(es.linear, tau, min_jerk(tau))
-    cmd_pos = start_pos + (target.pos - start_pos) * s
+    cmd_pos = start_pos + (target.pos - start_pos) * s + 2 * s * (1 - s) * target.bend  # (the Bezier curve)
     cmd_yaw = start_yaw + (target.yaw - start_yaw) * s
 
     key, key_noise = jax.random.split(es.key)
@@ -191,9 +196,17 @@ def uniform(key, lo, hi, shape=()):
   return jax.random.uniform(key, shape, minval=lo, maxval=hi)
 
 
-def target(pos, yaw, grip, speed, hold=0, tol=0.01) -> Target:
+def target(pos, yaw, grip, speed, hold=0, tol=0.01, bend=(0.0, 0.0, 0.0)) -> Target:
   f = lambda v: jnp.asarray(v, jnp.float32)
-  return Target(f(pos), f(yaw), f(grip), f(speed), jnp.asarray(hold, jnp.int32), f(tol))
+  return Target(f(pos), f(yaw), f(grip), f(speed), jnp.asarray(hold, jnp.int32), f(tol), f(bend))
+
+
+def arc(start: jax.Array, end: jax.Array, side: jax.Array, size: jax.Array) -> jax.Array:
+  """The `bend` of a path from `start` to `end` arcing `size` metres sideways (in the horizontal plane,
+  to the left of the direction of travel for `side` +1, to the right for -1, straight for 0)."""
+  d = end[:2] - start[:2]
+  left = jnp.stack([-d[1], d[0]]) / jnp.maximum(jnp.linalg.norm(d), 1e-6)
+  return jnp.concatenate([side * size * left, jnp.zeros(1)])
 
 
 def near_xy(a: jax.Array, b: jax.Array, radius: float) -> jax.Array:

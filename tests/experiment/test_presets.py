@@ -21,7 +21,7 @@ def test_method_presets_choose_the_strategy():
     lift_config.get_config("soe,dp")
   with pytest.raises(
     ValueError,
-    match="known presets: smoke, cpu, head, image, expert_data, protocol, select, length_cap, alpha, hold, beta, demo_fraction, aligned, range, frame, dp,",
+    match="known presets: smoke, cpu, head, image, expert_data, protocol, select, length_cap, alpha, hold, beta, demo_fraction, aligned, range, frame, style, dp,",
   ):
     lift_config.get_config("fast")
   with pytest.raises(ValueError, match="expert_data goes with an exploring method"):

@@ -7,6 +7,7 @@ import jax
 import numpy as np
 import pytest
 
+from soe_jax.analysis import demo_styles
 from soe_jax.commands import experts as experts_command
 from soe_jax.data import hdf5
 from soe_jax.experts import collect, transport
@@ -32,6 +33,25 @@ def test_lift_demonstrations_succeed_and_vary(jitted_env):
     np.testing.assert_array_equal(e["next_obs"][k][:-1], e["obs"][k][1:])
   again = collect.run_demos(env, make_expert("lift"), keys, progress=False)
   np.testing.assert_array_equal(batch["actions"], again["actions"])
+
+
+def test_the_varied_lift_demonstrator_arcs_both_ways_grasps_both_faces_and_hovers(jitted_env):
+  """`style=varied`: on 24 start states every episode succeeds, and the measured styles (read from the
+  commanded actions alone) show arcs to each side, both face pairs and hovers, none of which the
+  scripted demonstrator's episodes from the same states show (its faces follow the cube's yaw)."""
+  env, _, _ = jitted_env("lift")
+  keys = jax.random.split(jax.random.PRNGKey(3), 24)
+  varied = demo_styles.measure(collect.run_demos(env, make_expert("lift", "varied"), keys, progress=False))
+  scripted = demo_styles.measure(collect.run_demos(env, make_expert("lift"), keys, progress=False))
+  assert varied["success_rate"] == 1.0
+  assert min(varied["arc_left"], varied["arc_right"], varied["face_0"], varied["face_1"], varied["paused"]) > 0.1
+  assert scripted["straight"] == 1.0 and scripted["paused"] == 0.0
+  assert varied["length_std"] > scripted["length_std"]
+
+
+def test_an_unknown_demonstration_style_lists_the_known_ones():
+  with pytest.raises(ValueError, match="known styles: scripted, varied"):
+    make_expert("lift", "human")
 
 
 def test_unknown_expert_lists_known_ones():

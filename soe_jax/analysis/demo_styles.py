@@ -1,0 +1,85 @@
+"""How varied a batch of demonstrations is, read from what they commanded (`experts --measure`): the
+approach (straight, or arced to the left or the right of the straight line to the grasp), which pair
+of the object's faces the fingers closed on, the spread of the hand's path length, how many hover or
+pause, and the episodes' lengths. The same numbers for scripted and varied demonstrators, side by side,
+say whether the varied ones meet their thresholds (`THRESHOLDS`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# An approach is arced when the hand passes this far (m) to one side of the straight line to the grasp.
+ARC_MIN = 0.015
+# A pause: at least this many consecutive steps with the gripper open and the commanded position moving
+# less than PAUSE_SPEED (m per step), after the hand first moved.
+PAUSE_STEPS = 8
+PAUSE_SPEED = 0.0015  # (the commanded position carries the demonstrator's AR(1) wobble, ~0.5 mm a step)
+# What varied demonstrations must show (issue: human-like demonstrators).
+THRESHOLDS = dict(arc_each_side=0.25, face_each=0.20, success=0.95)
+
+
+def _yaw_of_rot6d(rot6d: np.ndarray) -> np.ndarray:
+  """The yaw of the top-down frame's closing axis: rot6d's first column is that axis."""
+  return np.arctan2(rot6d[..., 1], rot6d[..., 0])
+
+
+def _quat_yaw(q: np.ndarray) -> np.ndarray:
+  x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+  return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def episode(actions: np.ndarray, object_pose: np.ndarray, face_period: float = np.pi / 2) -> dict:
+  """One episode's (T, 10) commanded actions and (T, >= 7) object poses (position, xyzw quaternion) ->
+  its approach side (-1 right, 0 straight, +1 left), the grasp's face (0 or 1: the closing axis along
+  the object's yaw or a quarter turn from it), path length, whether it paused, and its length."""
+  pos, grip = actions[:, :3], actions[:, 9]
+  closing = np.flatnonzero(grip > 0)
+  t_close = int(closing[0]) if closing.size else len(actions) - 1
+  start, grasp = pos[0, :2], pos[t_close, :2]
+  d = grasp - start
+  rel = pos[: t_close + 1, :2] - start
+  side_offset = (d[0] * rel[:, 1] - d[1] * rel[:, 0]) / max(np.linalg.norm(d), 1e-6)  # + left of travel
+  extreme = side_offset[np.argmax(np.abs(side_offset))]
+  side = 0 if abs(extreme) < ARC_MIN else int(np.sign(extreme))
+  rel_yaw = np.mod(_yaw_of_rot6d(actions[t_close, 3:9]) - _quat_yaw(object_pose[t_close, 3:7]), np.pi)
+  face = int(np.round(rel_yaw / face_period)) % 2
+  step = np.linalg.norm(np.diff(pos, axis=0), axis=1)
+  moved = np.flatnonzero(step > PAUSE_SPEED)
+  still = (step < PAUSE_SPEED) & (grip[1:] < 0)
+  still[: moved[0] if moved.size else len(still)] = False  # before the hand first moved: settling
+  runs = np.diff(np.concatenate([[0], still.astype(int), [0]]))
+  longest = int((np.flatnonzero(runs == -1) - np.flatnonzero(runs == 1)).max()) if still.any() else 0
+  return dict(side=side, face=face, path=float(step.sum()), paused=longest >= PAUSE_STEPS, length=len(actions))
+
+
+def measure(batch: dict, object_key: str = "object") -> dict:
+  """A batch of demonstrations (`collect.run_demos`) -> the share of each approach side, each face,
+  the path length's coefficient of variation, the share that paused, length mean and std (over the
+  successful episodes), the success rate, and which `THRESHOLDS` hold."""
+  ok = np.flatnonzero(batch["success"])
+  eps = [episode(batch["actions"][i, : batch["length"][i]], batch["obs"][object_key][i, : batch["length"][i]])
+         for i in ok]  # fmt: skip
+  if not eps:
+    return dict(success_rate=float(np.mean(batch["success"])), episodes=0)
+  share = lambda key, value: float(np.mean([e[key] == value for e in eps]))
+  paths, lengths = np.array([e["path"] for e in eps]), np.array([e["length"] for e in eps])
+  out = dict(
+    episodes=len(eps),
+    success_rate=float(np.mean(batch["success"])),
+    arc_left=share("side", 1),
+    arc_right=share("side", -1),
+    straight=share("side", 0),
+    face_0=share("face", 0),
+    face_1=share("face", 1),
+    path_cv=float(paths.std() / paths.mean()),
+    paused=float(np.mean([e["paused"] for e in eps])),
+    length_mean=float(lengths.mean()),
+    length_std=float(lengths.std()),
+  )
+  out["thresholds_met"] = dict(
+    arc_each_side=min(out["arc_left"], out["arc_right"]) >= THRESHOLDS["arc_each_side"],
+    face_each=min(out["face_0"], out["face_1"]) >= THRESHOLDS["face_each"],
+    success=out["success_rate"] >= THRESHOLDS["success"],
+  )
+  return out
