@@ -29,19 +29,25 @@ def _quat_yaw(q: np.ndarray) -> np.ndarray:
   return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
+def _side(path: np.ndarray) -> int:
+  """Which side of the straight line from its first to its last point a horizontal path passes: +1 left
+  of the direction of travel, -1 right, 0 within `ARC_MIN` of it (straight)."""
+  d, rel = path[-1] - path[0], path - path[0]
+  offset = (d[0] * rel[:, 1] - d[1] * rel[:, 0]) / max(np.linalg.norm(d), 1e-6)
+  extreme = offset[np.argmax(np.abs(offset))]
+  return 0 if abs(extreme) < ARC_MIN else int(np.sign(extreme))
+
+
 def episode(actions: np.ndarray, object_pose: np.ndarray, face_period: float = np.pi / 2) -> dict:
   """One episode's (T, 10) commanded actions and (T, >= 7) object poses (position, xyzw quaternion) ->
-  its approach side (-1 right, 0 straight, +1 left), the grasp's face (0 or 1: the closing axis along
+  its approach side (-1 right, 0 straight, +1 left), its carry's (None without a release), the grasp's face (0 or 1: the closing axis along
   the object's yaw or a quarter turn from it), path length, whether it paused, and its length."""
   pos, grip = actions[:, :3], actions[:, 9]
   closing = np.flatnonzero(grip > 0)
   t_close = int(closing[0]) if closing.size else len(actions) - 1
-  start, grasp = pos[0, :2], pos[t_close, :2]
-  d = grasp - start
-  rel = pos[: t_close + 1, :2] - start
-  side_offset = (d[0] * rel[:, 1] - d[1] * rel[:, 0]) / max(np.linalg.norm(d), 1e-6)  # + left of travel
-  extreme = side_offset[np.argmax(np.abs(side_offset))]
-  side = 0 if abs(extreme) < ARC_MIN else int(np.sign(extreme))
+  released = np.flatnonzero(grip[t_close:] < 0)
+  # The carry (Can's, Square's): from the grasp to the release, where the demonstration places the object.
+  carry = _side(pos[t_close : t_close + released[0] + 1, :2]) if released.size else None
   rel_yaw = np.mod(_yaw_of_rot6d(actions[t_close, 3:9]) - _quat_yaw(object_pose[t_close, 3:7]), np.pi)
   face = int(np.round(rel_yaw / face_period)) % 2
   step = np.linalg.norm(np.diff(pos, axis=0), axis=1)
@@ -50,12 +56,19 @@ def episode(actions: np.ndarray, object_pose: np.ndarray, face_period: float = n
   still[: moved[0] if moved.size else len(still)] = False  # before the hand first moved: settling
   runs = np.diff(np.concatenate([[0], still.astype(int), [0]]))
   longest = int((np.flatnonzero(runs == -1) - np.flatnonzero(runs == 1)).max()) if still.any() else 0
-  return dict(side=side, face=face, path=float(step.sum()), paused=longest >= PAUSE_STEPS, length=len(actions))
+  return dict(
+    side=_side(pos[: t_close + 1, :2]),
+    carry=carry,
+    face=face,
+    path=float(step.sum()),
+    paused=longest >= PAUSE_STEPS,
+    length=len(actions),
+  )
 
 
 def measure(batch: dict, object_key: str = "object") -> dict:
   """A batch of demonstrations (`collect.run_demos`) -> the share of each approach side, each face,
-  the path length's coefficient of variation, the share that paused, length mean and std (over the
+  the same for the carry to the place (tasks that release the object), the path length's coefficient of variation, the share that paused, length mean and std (over the
   successful episodes), the success rate, and which `THRESHOLDS` hold."""
   ok = np.flatnonzero(batch["success"])
   eps = [episode(batch["actions"][i, : batch["length"][i]], batch["obs"][object_key][i, : batch["length"][i]])
@@ -70,6 +83,7 @@ def measure(batch: dict, object_key: str = "object") -> dict:
     arc_left=share("side", 1),
     arc_right=share("side", -1),
     straight=share("side", 0),
+    **({} if eps[0]["carry"] is None else dict(carry_left=share("carry", 1), carry_right=share("carry", -1))),
     face_0=share("face", 0),
     face_1=share("face", 1),
     path_cv=float(paths.std() / paths.mean()),
@@ -82,4 +96,6 @@ def measure(batch: dict, object_key: str = "object") -> dict:
     face_each=min(out["face_0"], out["face_1"]) >= THRESHOLDS["face_each"],
     success=out["success_rate"] >= THRESHOLDS["success"],
   )
+  if "carry_left" in out:
+    out["thresholds_met"]["carry_each_side"] = min(out["carry_left"], out["carry_right"]) >= THRESHOLDS["arc_each_side"]
   return out

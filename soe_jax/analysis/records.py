@@ -274,10 +274,13 @@ def demo_styles_table(records: Records) -> str:
     v = r["variety"]
     met = ", ".join(k for k, ok in v["thresholds_met"].items() if ok) or "none"
     rows.append([name, r["task"], r["style"], f"{pct(v['success_rate'])} of {r['num_episodes']}",
-                 f"{pct(v['arc_left'])} / {pct(v['arc_right'])}", f"{pct(v['face_0'])} / {pct(v['face_1'])}",
+                 f"{pct(v['arc_left'])} / {pct(v['arc_right'])}",
+                 f"{pct(v['carry_left'])} / {pct(v['carry_right'])}" if "carry_left" in v else "-",
+                 f"{pct(v['face_0'])} / {pct(v['face_1'])}",
                  f"{v['path_cv']:.3f}", pct(v["paused"]), f"{v['length_mean']:.1f} ± {v['length_std']:.1f}", met,
                  r["commit"]])  # fmt: skip
-  header = ["record", "task", "style", "success", "arced left / right", "faces 0 / 1", "path length CV", "paused",
+  header = ["record", "task", "style", "success", "approach arced left / right", "carry arced left / right",
+            "faces 0 / 1", "path length CV", "paused",
             "length (steps)", "thresholds met", "commit"]  # fmt: skip
   return markdown(header, rows)
 

@@ -1,5 +1,8 @@
-"""Can demonstrator: over the can, down around its top, close, lift over the bin walls, carry to the
-target compartment, lower, release, retreat."""
+"""Can demonstrators: over the can, down around its top, close, lift over the bin walls, carry to the
+target compartment, lower, release, retreat. `EXPERT` is the scripted one; `VARIED` draws human-like
+styles per episode (`lift.VARIED`'s, here for the approach and the carry to the bin): paths straight or
+arced to either side, the grasp at any yaw around the can, the descent's own speed, and an occasional
+hover over the can or over the compartment."""
 
 from __future__ import annotations
 
@@ -7,6 +10,7 @@ import jax
 import jax.numpy as jnp
 
 from soe_jax.envs import can as can_task
+from soe_jax.experts import lift as lift_expert
 from soe_jax.experts import script
 from soe_jax.experts.script import target, uniform
 
@@ -81,6 +85,34 @@ def resume(obs):
   free = jnp.where(can_task.over_target(can), 8, jnp.where(script.near_xy(eef, can, 0.012), 2, 1))
   return jnp.where(holding, carried, free)
 
+
+def sample_varied_params(key):
+  k = jax.random.split(key, 6)
+  p = dict(sample_params(k[0]), **lift_expert.sample_styles(k[1]))
+  carry = lift_expert.sample_styles(k[2])  # the carry's own arc and hover
+  return dict(p, yaw=uniform(k[3], -jnp.pi / 2, jnp.pi / 2), carry_side=carry["side"], carry_arc=carry["arc"],
+              carry_hover=carry["hover"])  # fmt: skip
+
+
+def above_varied(obs, p, cmd_pos, cmd_yaw):
+  t = above(obs, p, cmd_pos, cmd_yaw)
+  return t._replace(hold=p["hover"], bend=script.arc(cmd_pos, t.pos, p["side"], p["arc"]))
+
+
+def descend_varied(obs, p, cmd_pos, cmd_yaw):
+  return descend(obs, p, cmd_pos, cmd_yaw)._replace(speed=p["descend_speed"])
+
+
+def carry_varied(obs, p, cmd_pos, cmd_yaw):
+  t = carry(obs, p, cmd_pos, cmd_yaw)
+  return t._replace(hold=p["carry_hover"], bend=script.arc(cmd_pos, t.pos, p["carry_side"], p["carry_arc"]))
+
+
+VARIED = script.ScriptedExpert(
+  plans=(settle, above_varied, descend_varied, close, lift, carry_varied, lower, release, retreat),
+  sample_params=sample_varied_params,
+  resume=resume,
+)
 
 EXPERT = script.ScriptedExpert(
   plans=(settle, above, descend, close, lift, carry, lower, release, retreat),

@@ -43,21 +43,26 @@ HOVER_SHARE = 0.3
 HOVER_STEPS = (8, 20)
 
 
-def sample_varied_params(key):
-  k = jax.random.split(key, 8)
-  p = sample_params(k[0])
-  speed = uniform(k[1], 0.007, 0.018)
-  side = jax.random.choice(k[2], jnp.array([-1.0, 0.0, 1.0]), p=jnp.array([ARC_SHARE, 1 - 2 * ARC_SHARE, ARC_SHARE]))
-  hover = jax.random.uniform(k[3]) < HOVER_SHARE
+def sample_styles(key) -> dict:
+  """A varied demonstrator's styles for one episode (Lift's, and the approach and carry of Can's and
+  Square's): the approach's side (-1, 0, +1) and arc size, the speed and the descent's, and a hover."""
+  k = jax.random.split(key, 6)
+  speed = uniform(k[0], 0.007, 0.018)
+  side = jax.random.choice(k[1], jnp.array([-1.0, 0.0, 1.0]), p=jnp.array([ARC_SHARE, 1 - 2 * ARC_SHARE, ARC_SHARE]))
+  hover = jax.random.uniform(k[2]) < HOVER_SHARE
   return dict(
-    p,
     speed=speed,
-    descend_speed=speed * uniform(k[4], 0.35, 0.9),
+    descend_speed=speed * uniform(k[3], 0.35, 0.9),
     side=side,
-    arc=uniform(k[5], *ARC_SIZE),
-    face=jax.random.randint(k[6], (), 0, 2).astype(jnp.float32),  # which pair of faces the fingers close on
-    hover=jnp.where(hover, jax.random.randint(k[7], (), *HOVER_STEPS), 0),
+    arc=uniform(k[4], *ARC_SIZE),
+    hover=jnp.where(hover, jax.random.randint(k[5], (), *HOVER_STEPS), 0),
   )
+
+
+def sample_varied_params(key):
+  k = jax.random.split(key, 3)
+  face = jax.random.randint(k[2], (), 0, 2).astype(jnp.float32)  # which pair of faces the fingers close on
+  return dict(sample_params(k[0]), **sample_styles(k[1]), face=face)
 
 
 def above_varied(obs, p, cmd_pos, cmd_yaw):
