@@ -21,8 +21,11 @@ def _git(*args: str) -> str:
 
 
 def commit() -> str:
+  """The commit checked out, with `+changes` when a tracked file outside `results/` differs from it (a
+  campaign rewriting its results' tables while a measurement runs leaves the code as committed)."""
   head = _git("rev-parse", "--short", "HEAD") or "unknown"
-  return head + ("+changes" if _git("status", "--porcelain", "--untracked-files=no") else "")
+  changed = _git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)results")
+  return head + ("+changes" if changed else "")
 
 
 def machine() -> str:
