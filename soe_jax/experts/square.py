@@ -1,5 +1,9 @@
-"""Square demonstrator: over the nut's handle, down, close, lift above the pegs, turn the nut square to
-the peg while carrying it over, lower it onto the peg, release, retreat."""
+"""Square demonstrators: over the nut's handle, down, close, lift above the pegs, turn the nut square to
+the peg while carrying it over, lower it onto the peg, release, retreat. `EXPERT` is the scripted one
+(it turns the nut the shortest way square); `VARIED` draws human-like styles per episode (`lift.VARIED`'s
+for the approach and the carry to the peg): paths straight or arced to either side, the descent's own
+speed, an occasional hover over the handle or over the peg, and the nut turned to either of the two
+nearest square orientations."""
 
 from __future__ import annotations
 
@@ -8,6 +12,7 @@ import jax.numpy as jnp
 
 from soe_jax.envs import rotations
 from soe_jax.envs import square as square_task
+from soe_jax.experts import lift as lift_expert
 from soe_jax.experts import script
 from soe_jax.experts.script import target, uniform
 
@@ -64,14 +69,15 @@ def lift(obs, p, cmd_pos, cmd_yaw):
   return target(cmd_pos.at[2].set(CARRY_Z), cmd_yaw, 1.0, p["speed"], tol=0.02)
 
 
-def _over_peg(obs, cmd_pos, cmd_yaw, rotate: bool):
-  """Site target that puts the held nut's center over the square peg, turning it square if asked."""
+def _over_peg(obs, cmd_pos, cmd_yaw, rotate: bool, second: jax.Array = 0.0):
+  """Site target that puts the held nut's center over the square peg, turning it square if asked: the
+  shortest way, or with `second` (0 or 1) the second shortest."""
   nut, nut_yaw = _nut(obs)
   eef = obs["robot0_eef_pos"]
   # Square to the peg with the handle pointing left, back or right: with the handle pointing away
   # (+x) the grip site would be beyond the arm's reach over the peg.
   turns = script.nearest_equivalent(jnp.array([0.5, 1.0, -0.5]) * jnp.pi, nut_yaw, 2 * jnp.pi) - nut_yaw
-  turn = jnp.where(rotate, turns[jnp.argmin(jnp.abs(turns))], 0.0)
+  turn = jnp.where(rotate, turns[jnp.argsort(jnp.abs(turns))[jnp.asarray(second, jnp.int32)]], 0.0)
   offset = rotations.rotz(turn) @ (nut - eef)  # nut center relative to the site after the turn
   pos = jnp.concatenate([jnp.asarray(square_task.SQUARE_PEG) - offset[:2], cmd_pos[2:]])
   return pos, cmd_yaw + turn, offset[2]
@@ -116,6 +122,35 @@ def resume(obs):
   free = jnp.where(on_peg, 9, jnp.where(script.near_xy(eef, handle, 0.012), 2, 1))
   return jnp.where(holding, carried, free)
 
+
+def sample_varied_params(key):
+  k = jax.random.split(key, 4)
+  p = dict(sample_params(k[0]), **lift_expert.sample_styles(k[1]))
+  carry = lift_expert.sample_styles(k[2])  # the carry's own arc and hover
+  second = jax.random.randint(k[3], (), 0, 2).astype(jnp.float32)
+  return dict(p, carry_side=carry["side"], carry_arc=carry["arc"], carry_hover=carry["hover"], second=second)
+
+
+def above_varied(obs, p, cmd_pos, cmd_yaw):
+  t = above(obs, p, cmd_pos, cmd_yaw)
+  return t._replace(hold=p["hover"], bend=script.arc(cmd_pos, t.pos, p["side"], p["arc"]))
+
+
+def descend_varied(obs, p, cmd_pos, cmd_yaw):
+  return descend(obs, p, cmd_pos, cmd_yaw)._replace(speed=p["descend_speed"])
+
+
+def carry_varied(obs, p, cmd_pos, cmd_yaw):
+  pos, yaw, _ = _over_peg(obs, cmd_pos, cmd_yaw, rotate=True, second=p["second"])
+  bend = script.arc(cmd_pos, pos, p["carry_side"], p["carry_arc"])
+  return target(pos, yaw, 1.0, 1.2 * p["speed"], hold=3 + p["carry_hover"], tol=0.01, bend=bend)
+
+
+VARIED = script.ScriptedExpert(
+  plans=(settle, above_varied, descend_varied, close, lift, carry_varied, align, insert, release, retreat),
+  sample_params=sample_varied_params,
+  resume=resume,
+)
 
 EXPERT = script.ScriptedExpert(
   plans=(settle, above, descend, close, lift, carry, align, insert, release, retreat),
