@@ -22,6 +22,7 @@ import numpy as np
 from soe_jax.envs import registry as env_registry
 from soe_jax.experiment.rundir import RunDir
 from soe_jax.render.pool import Renderer
+from soe_jax.runtime import atomic, faults
 from soe_jax.runtime.errors import UserError
 
 # The tasks' cameras, the agent view then the in-hand view (`manipulation.CAMERAS`; a test keeps the two
@@ -47,11 +48,9 @@ def frames(renderer: Renderer, states: np.ndarray, nq: int) -> np.ndarray:
 def write_mp4(path: str, video: np.ndarray, fps: int = FPS) -> None:
   """Write (T, H, W, 3) uint8 frames as H.264 MP4 (imageio-ffmpeg's own encoder), atomically."""
   os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-  tmp = f"{path}.tmp-{os.getpid()}.mp4"
-  with warnings.catch_warnings():  # JAX warns of any fork; imageio-ffmpeg's is followed at once by exec
-    warnings.filterwarnings("ignore", "os.fork", RuntimeWarning)
+  with faults.site("videos"), atomic.replacing(path, suffix=".mp4") as tmp, warnings.catch_warnings():
+    warnings.filterwarnings("ignore", "os.fork", RuntimeWarning)  # (JAX warns of any fork; ffmpeg's execs)
     imageio.mimwrite(tmp, list(video), fps=fps, codec="libx264", quality=7, macro_block_size=16)
-  os.replace(tmp, path)
 
 
 def read_mp4(path: str) -> np.ndarray:

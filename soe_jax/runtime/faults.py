@@ -44,6 +44,7 @@ SITES = {
   "phase_record": (("rounds/*/*.json", "fit.json", "evaluate.json"), "a finished phase's record"),
   "metrics_line": (("metrics.jsonl", "tb/*"), "a phase's line in metrics.jsonl and TensorBoard"),
   "report": (("report.md", "outcomes.json", "*.png"), "a finished run's report"),
+  "videos": (("videos/*.mp4",), "a round's stored episodes drawn (`log.videos`)"),
   "results_export": (("*/seed*/*/*",), "a campaign's copy of a finished run's small files"),
   "comparison": (("comparison.md", "comparison.csv"), "a campaign's table over its results"),
 }

@@ -9,9 +9,11 @@ import warnings
 
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from soe_jax.experiment import video
 from soe_jax.experiment.rundir import RunDir
+from soe_jax.runtime import faults
 from tests.render.test_render import needs_egl
 
 pytestmark = needs_egl
@@ -59,3 +61,19 @@ def test_writing_and_reading_a_video_raise_no_warning(tmp_path):
     frames = video.read_mp4(str(tmp_path / "v.mp4"))
   assert not [str(w.message) for w in caught], [str(w.message) for w in caught]
   assert frames.shape == (3, 16, 16, 3)
+
+
+def test_a_video_killed_midway_leaves_the_old_one_whole(tmp_path, monkeypatch):
+  """The write site `videos`: a failure at its `during` point (the new file written, not yet renamed)
+  leaves the old video and no temporary file."""
+  path = str(tmp_path / "v.mp4")
+  video.write_mp4(path, np.zeros((3, 16, 16, 3), np.uint8))
+  before = open(path, "rb").read()
+
+  def fail():
+    raise OSError("killed here")
+
+  monkeypatch.setattr(faults, "during", fail)
+  with pytest.raises(OSError):
+    video.write_mp4(path, np.full((5, 16, 16, 3), 255, np.uint8))
+  assert os.listdir(tmp_path) == ["v.mp4"] and open(path, "rb").read() == before
