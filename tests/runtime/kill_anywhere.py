@@ -12,6 +12,7 @@ in a fresh process that resumes the last), then to its end.
 from __future__ import annotations
 
 import collections
+import csv
 import dataclasses
 import glob
 import json
@@ -154,7 +155,7 @@ def _run_dirs(root: pathlib.Path) -> list[pathlib.Path]:
 def left(job: str, base: pathlib.Path) -> dict:
   """What a finished job left that a resumed one must reproduce: per run directory its metrics lines,
   phase records (timings aside), outcomes, kept episodes and last policy's parameters; per results copy
-  its metrics and outcomes; and the comparison table's rows (timings aside)."""
+  its metrics and outcomes; and the comparison table's rows (timings aside: its `round_wall_s`)."""
   out = {}
   for run in _run_dirs(base):
     name = str(run.relative_to(base))
@@ -172,8 +173,9 @@ def left(job: str, base: pathlib.Path) -> dict:
     rel = os.path.relpath(copy, base)
     out[rel, "metrics"] = _metrics(f"{copy}/metrics.jsonl")
     out[rel, "outcomes"] = json.loads(pathlib.Path(f"{copy}/outcomes.json").read_text())
-  if os.path.exists(csv := base / "results" / "comparison.csv"):
-    out["comparison"] = csv.read_text()
+  if os.path.exists(table := base / "results" / "comparison.csv"):
+    with open(table) as f:
+      out["comparison"] = [_timeless(row) for row in csv.DictReader(f)]  # (without round_wall_s)
   return out
 
 
