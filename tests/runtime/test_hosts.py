@@ -47,7 +47,11 @@ def _run(tmp: pathlib.Path, processes: int, job: str) -> pathlib.Path:
                             cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
            for i in range(processes)]  # fmt: skip
   outs = [p.communicate(timeout=1200)[0] for p in procs]
-  assert [p.returncode for p in procs] == [0] * processes, outs[0][-3000:] + outs[-1][-3000:]
+  # Each process's own first error (a peer's failure ends the others with the coordination service's).
+  first = lambda out: out[out.find("Traceback") :][:3000] if "Traceback" in out else out[-3000:]
+  assert [p.returncode for p in procs] == [0] * processes, "\n".join(
+    f"process {i}: {first(o)}" for i, o in enumerate(outs)
+  )
   return workdir.parent
 
 
