@@ -8,7 +8,8 @@ Every file a resumed run or campaign reads back, or leaves as its result, is wri
     faults.during()      # the new content written, not yet in place (or half a line appended)
     ...                  # rename into place
 
-A site is also where the processes of a multi-host run meet once the write is done (`hosts`).
+A site is also where the processes of a multi-host run meet, before the write and once it is done
+(`hosts`): every process decides from the same files.
 
 `during()` goes where a kill hurts most: before an atomic write's rename, in the middle of an appended
 line, inside an orbax save before it finalises. Normally these marks do nothing. Two environment
@@ -81,6 +82,9 @@ def site(name: str) -> Iterator[None]:
   """The write inside is site `name`'s (one of `SITES`)."""
   if name not in SITES:
     raise KeyError(f"unknown write site {name!r}; the sites: {sorted(SITES)}")
+  # Several hosts: all meet before process 0 writes, so none can read the new file before deciding as
+  # the others did (whether a phase is done, a config saved), and again after, so all read it next.
+  hosts.barrier(f"write {name}")
   point(name, "before")
   _active.append(name)
   try:

@@ -1,9 +1,10 @@
 """Several hosts, one set of files: in a multi-host run (`jax.distributed`, `sharding`) every process
 computes the same run in step, and only process 0 writes. The others' writes go to their temporary
 names and are dropped there (`atomic.replacing`), so they run every line of the same code, orbax's
-collective saves included, and never touch a file. After each write site (`faults.site`) the processes
-meet, so what process 0 wrote is there for every process's next read: the run directory must be on a
-file system all hosts see.
+collective saves included, and never touch a file. The processes meet before and after each write site
+(`faults.site`): before, so that no process reads a file process 0 has just written while deciding
+what the others decided without it (a phase done, a config saved); after, so that what process 0 wrote
+is there for every process's next read. The run directory must be on a file system all hosts see.
 
 Without jax imported, or with one process, this process is the writer and a barrier is nothing.
 """
