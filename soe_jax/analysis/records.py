@@ -268,7 +268,7 @@ TABLES.register("serve", serve_table)
 
 
 def demo_styles_table(records: Records) -> str:
-  """`experts --measure` records: how varied each demonstrator's episodes are (`analysis.demo_styles`)."""
+  """`experts --measure` records: how varied each demonstrator's episodes are (`experts.variety`)."""
   rows = []
   for name, r in records:
     v = r["variety"]

@@ -126,7 +126,7 @@ def record(task: str, num_episodes: int, seed: int = 0, out: str | None = None, 
   """Demonstrations of `task` in `style` from `num_episodes` start states of `seed`, the successful ones
   written to `out` in robomimic's HDF5 layout when given -> {task, style, num_episodes, success_rate,
   mean_length (of the successful ones), backend, seconds[, out, num_saved][, variety: with `measure`,
-  `analysis.demo_styles.measure`]}."""
+  `experts.variety.measure`]}."""
   env = make_env(task, backend=backend)
   expert = expert_registry.make_expert(task, style)
   start = time.time()
@@ -142,9 +142,9 @@ def record(task: str, num_episodes: int, seed: int = 0, out: str | None = None, 
     seconds=round(time.time() - start, 2),
   )
   if measure:
-    from soe_jax.analysis import demo_styles
+    from soe_jax.experts import variety
 
-    result["variety"] = demo_styles.measure(batch)
+    result["variety"] = variety.measure(batch)
   if out:
     found = split_episodes(batch)
     meta = dict(env_name=task, env_kwargs=env.config.to_dict(), source="scripted demonstrator", seed=seed)

@@ -7,10 +7,9 @@ import jax
 import numpy as np
 import pytest
 
-from soe_jax.analysis import demo_styles
 from soe_jax.commands import experts as experts_command
 from soe_jax.data import hdf5
-from soe_jax.experts import collect, transport
+from soe_jax.experts import collect, transport, variety
 from soe_jax.experts.registry import EXPERTS, make_expert
 
 
@@ -41,8 +40,8 @@ def test_the_varied_lift_demonstrator_arcs_both_ways_grasps_both_faces_and_hover
   scripted demonstrator's episodes from the same states show (its faces follow the cube's yaw)."""
   env, _, _ = jitted_env("lift")
   keys = jax.random.split(jax.random.PRNGKey(3), 24)
-  varied = demo_styles.measure(collect.run_demos(env, make_expert("lift", "varied"), keys, progress=False))
-  scripted = demo_styles.measure(collect.run_demos(env, make_expert("lift"), keys, progress=False))
+  varied = variety.measure(collect.run_demos(env, make_expert("lift", "varied"), keys, progress=False))
+  scripted = variety.measure(collect.run_demos(env, make_expert("lift"), keys, progress=False))
   assert varied["success_rate"] == 1.0
   assert min(varied["arc_left"], varied["arc_right"], varied["face_0"], varied["face_1"], varied["paused"]) > 0.1
   assert scripted["straight"] == 1.0 and scripted["paused"] == 0.0
