@@ -94,22 +94,18 @@ def sample_varied_params(key):
               carry_hover=carry["hover"])  # fmt: skip
 
 
-def above_varied(obs, p, cmd_pos, cmd_yaw):
-  t = above(obs, p, cmd_pos, cmd_yaw)
-  return t._replace(hold=p["hover"], bend=script.arc(cmd_pos, t.pos, p["side"], p["arc"]))
-
-
-def descend_varied(obs, p, cmd_pos, cmd_yaw):
-  return descend(obs, p, cmd_pos, cmd_yaw)._replace(speed=p["descend_speed"])
-
-
-def carry_varied(obs, p, cmd_pos, cmd_yaw):
-  t = carry(obs, p, cmd_pos, cmd_yaw)
-  return t._replace(hold=p["carry_hover"], bend=script.arc(cmd_pos, t.pos, p["carry_side"], p["carry_arc"]))
-
-
 VARIED = script.ScriptedExpert(
-  plans=(settle, above_varied, descend_varied, close, lift, carry_varied, lower, release, retreat),
+  plans=(
+    settle,
+    script.arced(above, "side", "arc", "hover"),
+    script.paced(descend, "descend_speed"),
+    close,
+    lift,
+    script.arced(carry, "carry_side", "carry_arc", "carry_hover"),
+    lower,
+    release,
+    retreat,
+  ),  # fmt: skip
   sample_params=sample_varied_params,
   resume=resume,
 )

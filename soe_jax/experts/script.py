@@ -201,6 +201,22 @@ def target(pos, yaw, grip, speed, hold=0, tol=0.01, bend=(0.0, 0.0, 0.0)) -> Tar
   return Target(f(pos), f(yaw), f(grip), f(speed), jnp.asarray(hold, jnp.int32), f(tol), f(bend))
 
 
+def arced(plan: Callable[..., Target], side: str, size: str, hover: str) -> Callable[..., Target]:
+  """`plan` with its path arced and a hover at its end, by the episode's parameters named `side`,
+  `size` and `hover` (a varied demonstrator's approach or carry)."""
+
+  def styled(obs, p, cmd_pos, cmd_yaw):
+    t = plan(obs, p, cmd_pos, cmd_yaw)
+    return t._replace(hold=t.hold + p[hover], bend=arc(cmd_pos, t.pos, p[side], p[size]))
+
+  return styled
+
+
+def paced(plan: Callable[..., Target], speed: str) -> Callable[..., Target]:
+  """`plan` at the episode's speed parameter `speed` (a varied demonstrator's descent)."""
+  return lambda obs, p, cmd_pos, cmd_yaw: plan(obs, p, cmd_pos, cmd_yaw)._replace(speed=p[speed])
+
+
 def arc(start: jax.Array, end: jax.Array, side: jax.Array, size: jax.Array) -> jax.Array:
   """The `bend` of a path from `start` to `end` arcing `size` metres sideways (in the horizontal plane,
   to the left of the direction of travel for `side` +1, to the right for -1, straight for 0)."""

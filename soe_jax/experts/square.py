@@ -131,15 +131,6 @@ def sample_varied_params(key):
   return dict(p, carry_side=carry["side"], carry_arc=carry["arc"], carry_hover=carry["hover"], second=second)
 
 
-def above_varied(obs, p, cmd_pos, cmd_yaw):
-  t = above(obs, p, cmd_pos, cmd_yaw)
-  return t._replace(hold=p["hover"], bend=script.arc(cmd_pos, t.pos, p["side"], p["arc"]))
-
-
-def descend_varied(obs, p, cmd_pos, cmd_yaw):
-  return descend(obs, p, cmd_pos, cmd_yaw)._replace(speed=p["descend_speed"])
-
-
 def carry_varied(obs, p, cmd_pos, cmd_yaw):
   pos, yaw, _ = _over_peg(obs, cmd_pos, cmd_yaw, rotate=True, second=p["second"])
   bend = script.arc(cmd_pos, pos, p["carry_side"], p["carry_arc"])
@@ -147,7 +138,18 @@ def carry_varied(obs, p, cmd_pos, cmd_yaw):
 
 
 VARIED = script.ScriptedExpert(
-  plans=(settle, above_varied, descend_varied, close, lift, carry_varied, align, insert, release, retreat),
+  plans=(
+    settle,
+    script.arced(above, "side", "arc", "hover"),
+    script.paced(descend, "descend_speed"),
+    close,
+    lift,
+    carry_varied,
+    align,
+    insert,
+    release,
+    retreat,
+  ),  # fmt: skip
   sample_params=sample_varied_params,
   resume=resume,
 )
