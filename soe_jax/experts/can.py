@@ -88,10 +88,8 @@ def resume(obs):
 
 def sample_varied_params(key):
   k = jax.random.split(key, 6)
-  p = dict(sample_params(k[0]), **lift_expert.sample_styles(k[1]))
-  carry = lift_expert.sample_styles(k[2])  # the carry's own arc and hover
-  return dict(p, yaw=uniform(k[3], -jnp.pi / 2, jnp.pi / 2), carry_side=carry["side"], carry_arc=carry["arc"],
-              carry_hover=carry["hover"])  # fmt: skip
+  p = dict(sample_params(k[0]), **lift_expert.sample_styles(k[1]), **lift_expert.carry_styles(k[2]))
+  return dict(p, yaw=uniform(k[3], -jnp.pi / 2, jnp.pi / 2))
 
 
 VARIED = script.ScriptedExpert(

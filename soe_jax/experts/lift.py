@@ -59,6 +59,13 @@ def sample_styles(key) -> dict:
   )
 
 
+def carry_styles(key) -> dict:
+  """`sample_styles`' arc and hover for a carry to the place (Can's, Square's): `carry_side`, `carry_arc`,
+  `carry_hover`."""
+  styles = sample_styles(key)
+  return {f"carry_{k}": styles[k] for k in ("side", "arc", "hover")}
+
+
 def sample_varied_params(key):
   k = jax.random.split(key, 3)
   face = jax.random.randint(k[2], (), 0, 2).astype(jnp.float32)  # which pair of faces the fingers close on

@@ -84,7 +84,8 @@ def _over_peg(obs, cmd_pos, cmd_yaw, rotate: bool, second: jax.Array = 0.0):
 
 
 def carry(obs, p, cmd_pos, cmd_yaw):
-  pos, yaw, _ = _over_peg(obs, cmd_pos, cmd_yaw, rotate=True)
+  # (the scripted demonstrator turns the nut the shortest way; a varied one's `second` may pick the next)
+  pos, yaw, _ = _over_peg(obs, cmd_pos, cmd_yaw, rotate=True, second=p.get("second", 0.0))
   return target(pos, yaw, 1.0, 1.2 * p["speed"], hold=3, tol=0.01)
 
 
@@ -125,16 +126,8 @@ def resume(obs):
 
 def sample_varied_params(key):
   k = jax.random.split(key, 4)
-  p = dict(sample_params(k[0]), **lift_expert.sample_styles(k[1]))
-  carry = lift_expert.sample_styles(k[2])  # the carry's own arc and hover
-  second = jax.random.randint(k[3], (), 0, 2).astype(jnp.float32)
-  return dict(p, carry_side=carry["side"], carry_arc=carry["arc"], carry_hover=carry["hover"], second=second)
-
-
-def carry_varied(obs, p, cmd_pos, cmd_yaw):
-  pos, yaw, _ = _over_peg(obs, cmd_pos, cmd_yaw, rotate=True, second=p["second"])
-  bend = script.arc(cmd_pos, pos, p["carry_side"], p["carry_arc"])
-  return target(pos, yaw, 1.0, 1.2 * p["speed"], hold=3 + p["carry_hover"], tol=0.01, bend=bend)
+  second = jax.random.randint(k[3], (), 0, 2).astype(jnp.float32)  # which square orientation the nut turns to
+  return dict(sample_params(k[0]), **lift_expert.sample_styles(k[1]), **lift_expert.carry_styles(k[2]), second=second)
 
 
 VARIED = script.ScriptedExpert(
@@ -144,7 +137,7 @@ VARIED = script.ScriptedExpert(
     script.paced(descend, "descend_speed"),
     close,
     lift,
-    carry_varied,
+    script.arced(carry, "carry_side", "carry_arc", "carry_hover"),
     align,
     insert,
     release,
