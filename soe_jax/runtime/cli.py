@@ -14,7 +14,7 @@ from typing import NoReturn
 from absl import flags, logging
 from ml_collections import config_flags
 
-from soe_jax.runtime import compile_cache, configfile, interrupt, sharding
+from soe_jax.runtime import compile_cache, configfile, hosts, interrupt, sharding
 from soe_jax.runtime.errors import UserError
 
 CONFIG_HELP = "configs/<task>.py[:PRESETS]"
@@ -151,6 +151,7 @@ def run(
   interrupt.terminate_as_interrupt()
   try:
     main(rest)
+    hosts.barrier("done")  # leave together: JAX's shutdown barrier waits only minutes for a peer
   except UserError as e:
     fail(str(e))
   except OSError as e:

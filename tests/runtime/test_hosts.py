@@ -23,12 +23,13 @@ if n > 1:
 import toy
 from soe_jax.analysis import report
 from soe_jax.experiment import loop
-from soe_jax.runtime import compile_cache, configfile
+from soe_jax.runtime import compile_cache, configfile, hosts
 compile_cache.enable()
 with toy.registered():
   config = toy.get_config("smoke,soe") if sys.argv[5] == "toy" else configfile.load(sys.argv[5])
   loop.run(config, sys.argv[1], progress=False)
   report.write(sys.argv[1])
+hosts.barrier("done")
 """
 
 
