@@ -80,7 +80,7 @@ def _check_base_path(control: dict, run: dict, control0, run0) -> None:
     )
 
 
-def _comparison(pairs: list[tuple]) -> dict | None:
+def comparison(pairs: list[tuple]) -> dict | None:
   """`metrics.pooled_comparison` of [(reference, method)] per seed (None if there are none)."""
   pairs = [(a, b) for a, b in pairs if a is not None and b is not None]
   if not pairs:
@@ -90,7 +90,7 @@ def _comparison(pairs: list[tuple]) -> dict | None:
   return dict(metrics.pooled_comparison(pairs), seeds=len(pairs))
 
 
-def _paired(c: dict | None) -> str:
+def paired_cell(c: dict | None) -> str:
   """'+3.5 ± 2.1 pts, 30 / 16, p=0.04' (mean ± std over seeds; gained / lost; the pooled p-value)."""
   if c is None:
     return "-"
@@ -155,7 +155,7 @@ def rows(workdirs: list[str]) -> list[dict]:
     successes = sum(int(round(r["sr_after"] * r["sr_episodes"])) for r in after)
     lo, hi = metrics.wilson_interval(successes, n)
     evaluated = lambda r, rnd: r["outcomes"]["evaluate"].get(rnd) if rnd is not None else None
-    vs_round0 = _comparison([(evaluated(r, "0"), evaluated(r, r["last"])) for r in after if r["last"] != "0"])
+    vs_round0 = comparison([(evaluated(r, "0"), evaluated(r, r["last"])) for r in after if r["last"] != "0"])
     vs_control = None
     if method != CONTROL:
       pairs = []
@@ -164,7 +164,7 @@ def rows(workdirs: list[str]) -> list[dict]:
         if control is not None:
           _check_base_path(control, r, evaluated(control, "0"), evaluated(r, "0"))
           pairs.append((evaluated(control, r["last"]), evaluated(r, r["last"])))
-      vs_control = _comparison(pairs)
+      vs_control = comparison(pairs)
     out.append(
       dict(
         task=task,
@@ -182,9 +182,9 @@ def rows(workdirs: list[str]) -> list[dict]:
         sr_after_wilson=f"[{lo:.3f}, {hi:.3f}]",
         improvement_abs=mean_std([r.get("improvement_abs") for r in group]),
         improvement_rel=mean_std([r.get("improvement_rel") for r in group]),
-        vs_round0=_paired(vs_round0),
+        vs_round0=paired_cell(vs_round0),
         vs_round0_p=None if vs_round0 is None else vs_round0["p_value"],
-        vs_control=_paired(vs_control),
+        vs_control=paired_cell(vs_control),
         vs_control_p=None if vs_control is None else vs_control["p_value"],
         round_wall_s=mean_std([r.get("round_wall_s") for r in group]),
         comparisons=dict(round0=vs_round0, control=vs_control),

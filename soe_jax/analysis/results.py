@@ -8,8 +8,8 @@ monotonic improvement, `soe_jax.analysis.over_rounds`).
   python -m soe_jax results --docs     # every generated table and figure in RESULTS.md and BENCHMARKS.md
 
 In RESULTS.md and BENCHMARKS.md a generated table sits between `<!-- table: RESULTS_DIR -->` and
-`<!-- /table -->`; `--docs` (`docs`) rewrites each from its folder, and a test checks that they are
-current. `--docs` also draws each figure of rounds named by a line `<!-- figure: RESULTS_DIR PATH.png -->`.
+`<!-- /table -->` (`<!-- table: RESULTS_DIR ARM:REFERENCE ... -->` for arms against each other,
+`against`); `--docs` (`docs`) rewrites each from its folder, and a test checks that they are current. `--docs` also draws each figure of rounds named by a line `<!-- figure: RESULTS_DIR PATH.png -->`.
 """
 
 from __future__ import annotations
@@ -18,15 +18,20 @@ import glob
 import os
 import re
 
-from soe_jax.analysis import aggregate, claims, over_rounds, records
+from soe_jax.analysis import against, aggregate, claims, over_rounds, records
 from soe_jax.analysis.tables import markdown, pct, spread
 from soe_jax.runtime import atomic
 
 
-def table(study: str) -> str:
+def table(study: str, pairs: list[str] = ()) -> str:
   """The table of the records in folder `study` (by their kind, `records.TABLES`), or of the runs a
   campaign exported there (the comparison of methods, the paper's claims, and over rounds where the
-  runs have several)."""
+  runs have several); with `pairs` (`ARM:REFERENCE`), the campaign's arms against each other instead
+  (`against`)."""
+  if pairs:
+    if not (runs := aggregate.find_runs(study)):
+      raise FileNotFoundError(f"no exported runs in {study!r} to pair")
+    return against.table(aggregate.rows(runs), against.parse(pairs))
   paths = sorted(glob.glob(os.path.join(study, "*.json")))
   if not paths:
     if runs := aggregate.find_runs(study):
@@ -83,8 +88,9 @@ def campaign_claims(rows: list[dict]) -> str:
   return "\n".join(lines) + "\n"
 
 
-# A generated table in RESULTS.md or BENCHMARKS.md: between these lines, naming its results folder.
-_BEGIN = re.compile(r"^<!-- table: (\S+) -->$")
+# A generated table in RESULTS.md or BENCHMARKS.md: between these lines, naming its results folder (and
+# for a table of arms against each other, the pairs).
+_BEGIN = re.compile(r"^<!-- table: (\S+)((?: \S+:\S+)*) -->$")
 # A generated figure of rounds (`over_rounds.figure`): this line names its results folder and its file.
 _FIGURE = re.compile(r"^<!-- figure: (\S+) (\S+) -->$")
 _END = "<!-- /table -->"
@@ -101,7 +107,7 @@ def regenerate(text: str) -> str:
       begin = next((j for j in range(i + 1, end or len(lines)) if _BEGIN.match(lines[j].rstrip("\n"))), None)
       if end is None or begin is not None:  # an unclosed marker would swallow the text up to the next table's end
         raise ValueError(f"'{lines[i].strip()}' has no '{_END}' after it before the next table")
-      out += [table(m.group(1)), lines[end]]
+      out += [table(m.group(1), m.group(2).split()), lines[end]]
       i = end
     i += 1
   return "".join(out)
