@@ -277,10 +277,11 @@ def demo_styles_table(records: Records) -> str:
                  f"{pct(v['arc_left'])} / {pct(v['arc_right'])}",
                  f"{pct(v['carry_left'])} / {pct(v['carry_right'])}" if "carry_left" in v else "-",
                  f"{pct(v['face_0'])} / {pct(v['face_1'])}",
+                 f"{pct(v['turn_short'])} / {pct(v['turn_long'])}" if "turn_short" in v else "-",
                  f"{v['path_cv']:.3f}", pct(v["paused"]), f"{v['length_mean']:.1f} ± {v['length_std']:.1f}", met,
                  r["commit"]])  # fmt: skip
   header = ["record", "task", "style", "success", "approach arced left / right", "carry arced left / right",
-            "faces 0 / 1", "path length CV", "paused",
+            "faces 0 / 1", "nut turned short / long", "path length CV", "paused",
             "length (steps)", "thresholds met", "commit"]  # fmt: skip
   return markdown(header, rows)
 

@@ -144,7 +144,7 @@ def record(task: str, num_episodes: int, seed: int = 0, out: str | None = None, 
   if measure:
     from soe_jax.experts import variety
 
-    result["variety"] = variety.measure(batch)
+    result["variety"] = variety.measure(batch, variety.EQUIVALENTS.get(task, "face"))
   if out:
     found = split_episodes(batch)
     meta = dict(env_name=task, env_kwargs=env.config.to_dict(), source="scripted demonstrator", seed=seed)

@@ -1,7 +1,9 @@
 """How varied a batch of demonstrations is, read from what they commanded (`experts --measure`): the
-approach (straight, or arced to the left or the right of the straight line to the grasp), which pair
-of the object's faces the fingers closed on, the spread of the hand's path length, how many hover or
-pause, and the episodes' lengths. The same numbers for scripted and varied demonstrators, side by side,
+approach (straight, or arced to the left or the right of the straight line to the grasp), which of
+the object's symmetric equivalents the demonstrator chose (the pair of faces the fingers closed on; for
+Square, whose handle is the nut's one grasp, which of the two nearest square orientations the nut was
+turned to on its way to the peg), the spread of the hand's path length, how many hover or pause, and
+the episodes' lengths. The same numbers for scripted and varied demonstrators, side by side,
 say whether the varied ones meet their thresholds (`THRESHOLDS`).
 """
 
@@ -16,7 +18,11 @@ ARC_MIN = 0.015
 PAUSE_STEPS = 8
 PAUSE_SPEED = 0.0015  # (the commanded position carries the demonstrator's AR(1) wobble, ~0.5 mm a step)
 # What varied demonstrations must show (issue: human-like demonstrators).
-THRESHOLDS = dict(arc_each_side=0.25, face_each=0.20, success=0.95)
+THRESHOLDS = dict(arc_each_side=0.25, equivalent_each=0.20, success=0.95)
+# Each task's symmetric equivalents: "face" (which pair of faces the fingers close across) unless named
+# here; "turn" (whether the nut turned the short way to square, under a quarter turn's half, or the long
+# way to the next square orientation, between the grasp and the release).
+EQUIVALENTS = {"square": "turn"}
 
 
 def _yaw_of_rot6d(rot6d: np.ndarray) -> np.ndarray:
@@ -40,14 +46,18 @@ def _side(path: np.ndarray) -> int:
 
 def episode(actions: np.ndarray, object_pose: np.ndarray, face_period: float = np.pi / 2) -> dict:
   """One episode's (T, 10) commanded actions and (T, >= 7) object poses (position, xyzw quaternion) ->
-  its approach side (-1 right, 0 straight, +1 left), its carry's (None without a release), the grasp's face (0 or 1: the closing axis along
-  the object's yaw or a quarter turn from it), path length, whether it paused, and its length."""
+  its approach side (-1 right, 0 straight, +1 left), its carry's (None without a release), the grasp's
+  face (0 or 1: the closing axis along the object's yaw or a quarter turn from it), its turn (None
+  without a release; 0 the object turned less than an eighth of a turn between grasp and release, 1
+  more), path length, whether it paused, and its length."""
   pos, grip = actions[:, :3], actions[:, 9]
   closing = np.flatnonzero(grip > 0)
   t_close = int(closing[0]) if closing.size else len(actions) - 1
   released = np.flatnonzero(grip[t_close:] < 0)
   # The carry (Can's, Square's): from the grasp to the release, where the demonstration places the object.
   carry = _side(pos[t_close : t_close + released[0] + 1, :2]) if released.size else None
+  yaws = _quat_yaw(object_pose[[t_close, t_close + released[0]] if released.size else [t_close], 3:7])
+  turn = int(abs(np.angle(np.exp(1j * (yaws[-1] - yaws[0])))) > np.pi / 4) if released.size else None
   rel_yaw = np.mod(_yaw_of_rot6d(actions[t_close, 3:9]) - _quat_yaw(object_pose[t_close, 3:7]), np.pi)
   face = int(np.round(rel_yaw / face_period)) % 2
   step = np.linalg.norm(np.diff(pos, axis=0), axis=1)
@@ -60,16 +70,19 @@ def episode(actions: np.ndarray, object_pose: np.ndarray, face_period: float = n
     side=_side(pos[: t_close + 1, :2]),
     carry=carry,
     face=face,
+    turn=turn,
     path=float(step.sum()),
     paused=longest >= PAUSE_STEPS,
     length=len(actions),
   )
 
 
-def measure(batch: dict, object_key: str = "object") -> dict:
+def measure(batch: dict, equivalents: str = "face", object_key: str = "object") -> dict:
   """A batch of demonstrations (`collect.run_demos`) -> the share of each approach side, each face,
-  the same for the carry to the place (tasks that release the object), the path length's coefficient of variation, the share that paused, length mean and std (over the
-  successful episodes), the success rate, and which `THRESHOLDS` hold."""
+  the same for the carry to the place (tasks that release the object), with `equivalents="turn"` the
+  share of each turn, the path length's coefficient of variation, the share that paused, length mean
+  and std (over the successful episodes), the success rate, and which `THRESHOLDS` hold (the
+  equivalents' on the faces or the turns)."""
   ok = np.flatnonzero(batch["success"])
   eps = [episode(batch["actions"][i, : batch["length"][i]], batch["obs"][object_key][i, : batch["length"][i]])
          for i in ok]  # fmt: skip
@@ -86,14 +99,16 @@ def measure(batch: dict, object_key: str = "object") -> dict:
     **({} if eps[0]["carry"] is None else dict(carry_left=share("carry", 1), carry_right=share("carry", -1))),
     face_0=share("face", 0),
     face_1=share("face", 1),
+    **(dict(turn_short=share("turn", 0), turn_long=share("turn", 1)) if equivalents == "turn" else {}),
     path_cv=float(paths.std() / paths.mean()),
     paused=float(np.mean([e["paused"] for e in eps])),
     length_mean=float(lengths.mean()),
     length_std=float(lengths.std()),
   )
+  shares = ("face_0", "face_1") if equivalents == "face" else ("turn_short", "turn_long")
   out["thresholds_met"] = dict(
     arc_each_side=min(out["arc_left"], out["arc_right"]) >= THRESHOLDS["arc_each_side"],
-    face_each=min(out["face_0"], out["face_1"]) >= THRESHOLDS["face_each"],
+    **{f"{equivalents}_each": min(out[k] for k in shares) >= THRESHOLDS["equivalent_each"]},
     success=out["success_rate"] >= THRESHOLDS["success"],
   )
   if "carry_left" in out:

@@ -48,6 +48,35 @@ def test_the_varied_lift_demonstrator_arcs_both_ways_grasps_both_faces_and_hover
   assert varied["length_std"] > scripted["length_std"]
 
 
+def _carried(turn: float, face_yaw: float, n: int = 40) -> tuple[np.ndarray, np.ndarray]:
+  """A synthetic pick-and-place read by the measure: the hand goes straight 10 cm, closes at step 10
+  with its closing axis at `face_yaw` to the object, carries it while the object turns by `turn` (rad)
+  and releases at step 30."""
+  actions = np.zeros((n, 10))
+  actions[:, 0] = np.minimum(np.arange(n), 10) * 0.01
+  actions[:, 3:5] = [np.cos(face_yaw), np.sin(face_yaw)]
+  actions[:, 9] = np.where((np.arange(n) >= 10) & (np.arange(n) < 30), 1.0, -1.0)
+  yaw = np.clip(np.arange(n) - 10, 0, 20) / 20 * turn
+  pose = np.zeros((n, 7))
+  pose[:, 5], pose[:, 6] = np.sin(yaw / 2), np.cos(yaw / 2)  # xyzw about z
+  return actions, pose
+
+
+def test_the_measure_reads_faces_and_turns_from_the_commands():
+  """The face is the closing axis against the object's yaw (quarter turns apart); the turn is how far
+  the object turned between grasp and release: under an eighth of a turn the short way, else the
+  long way to the next square orientation (Square's equivalents: its handle is the one grasp)."""
+  short, long = variety.episode(*_carried(0.3, 0.0)), variety.episode(*_carried(-1.2, np.pi / 2))
+  assert (short["turn"], short["face"], short["side"]) == (0, 0, 0) and (long["turn"], long["face"]) == (1, 1)
+  n = 4
+  batch = dict(success=np.ones(n, bool), length=np.full(n, 40),
+               actions=np.stack([_carried(t, 0.0)[0] for t in (0.3, -0.2, 1.3, 0.1)]),
+               obs=dict(object=np.stack([_carried(t, 0.0)[1] for t in (0.3, -0.2, 1.3, 0.1)])))  # fmt: skip
+  turns, faces = variety.measure(batch, "turn"), variety.measure(batch)
+  assert (turns["turn_short"], turns["turn_long"]) == (0.75, 0.25) and turns["thresholds_met"]["turn_each"]
+  assert "turn_short" not in faces and not faces["thresholds_met"]["face_each"]  # every grasp on one face pair
+
+
 def test_an_unknown_demonstration_style_lists_the_known_ones():
   with pytest.raises(ValueError, match="known styles: scripted, varied"):
     make_expert("lift", "human")
