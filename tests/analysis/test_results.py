@@ -92,6 +92,22 @@ def test_latent_sweeps_get_effective_dims_beside_the_papers(tmp_path):
   ]
 
 
+def test_demonstration_styles_get_a_row_each_with_the_thresholds_they_meet(tmp_path):
+  """A task whose equivalents are the nut's turns shows them (the others a dash) and names what it meets."""
+  base = dict(success_rate=1.0, arc_left=0.3, arc_right=0.25, straight=0.45, face_0=0.5, face_1=0.5, path_cv=0.1,
+              paused=0.2, length_mean=50.0, length_std=5.0)  # fmt: skip
+  lift = dict(base, thresholds_met=dict(arc_each_side=True, face_each=True, success=True))
+  square = dict(base, carry_left=0.4, carry_right=0.1, turn_short=0.8, turn_long=0.2,
+                thresholds_met=dict(arc_each_side=True, turn_each=True, success=True, carry_each_side=False))  # fmt: skip
+  for name, task, v in (("a_lift", "lift", lift), ("b_square", "square", square)):
+    record = dict(kind="demo_styles", task=task, style="varied", num_episodes=200, variety=v, commit="abc")
+    (tmp_path / f"{name}.json").write_text(json.dumps(record))
+  rows = results.table(str(tmp_path)).splitlines()
+  assert rows[2].split(" | ")[5:8] == ["-", "50.0% / 50.0%", "-"]
+  assert rows[3].split(" | ")[5:8] == ["40.0% / 10.0%", "50.0% / 50.0%", "80.0% / 20.0%"]
+  assert rows[3].split(" | ")[-2] == "arc_each_side, turn_each, success"
+
+
 def test_a_record_without_a_kind_is_an_error_naming_its_file(tmp_path):
   (tmp_path / "01_a.json").write_text(json.dumps(_record([1, 0], "aaa")))
   untyped = _record([0, 1], "bbb")
