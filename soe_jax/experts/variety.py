@@ -20,8 +20,9 @@ PAUSE_SPEED = 0.0015  # (the commanded position carries the demonstrator's AR(1)
 # What varied demonstrations must show (issue: human-like demonstrators).
 THRESHOLDS = dict(arc_each_side=0.25, equivalent_each=0.20, success=0.95)
 # Each task's symmetric equivalents: "face" (which pair of faces the fingers close across) unless named
-# here; "turn" (whether the nut turned the short way to square, under a quarter turn's half, or the long
-# way to the next square orientation, between the grasp and the release).
+# here; "turn" (between the grasp and the release, whether the nut turned less than an eighth of a turn,
+# the short way to square, or more, to another square orientation; the scripted Square demonstrator
+# turns it the long way too where the short way would leave the handle pointing away from the robot).
 EQUIVALENTS = {"square": "turn"}
 
 
