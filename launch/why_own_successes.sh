@@ -8,7 +8,10 @@
 #   and soe runs, exported beside; then the fidelity study on its dp, soe and soe alpha=0 runs.
 # PART b (about 65 min): the KL weight's dose-response, each beta with a round 0 of its own, with its own
 #   control and soe, to results/why-own-successes-beta/; then the fidelity study on soe and beta = 0.
-# PART all: both, one after the other (too long for one session on this CPU).
+# PART c (about 35 min): the setting that brought SOE level with the control on 3 seeds (aligned windows)
+#   re-evaluated on evaluation start states no experiment had used (eval.seed 55555): control, dp, soe
+#   and both with aligned windows, to results/why-own-successes-eval55555/.
+# PART all: a and b, one after the other (too long for one session on this CPU).
 # Work directories outside the work tree (WORKDIR, default /work/runs-why; part b uses WORKDIR-beta);
 # re-running resumes. CONFIG (default configs/lift.py:cpu) and RESULTS (default results) may be set in the
 # environment, e.g. CONFIG=configs/lift.py:smoke RESULTS=/tmp/why for a quick check of the whole path.
@@ -36,4 +39,9 @@ if [[ $part == b || $part == all ]]; then
     --workdir="$runs-beta" --results="$out/why-own-successes-beta" --progress=false
   base="$runs-beta/lift/seed$seed"
   python -m soe_jax fidelity "$base/soe" "$base/soe-beta0" --out="$out/fidelity/lift_beta_seed$seed.json"
+fi
+if [[ $part == c ]]; then
+  python -m soe_jax campaign --config="$config" --config.seed="$seed" --config.eval.seed=55555 \
+    --methods=control,dp,soe,dp+aligned=true,soe+aligned=true \
+    --workdir="$runs-eval55555" --results="$out/why-own-successes-eval55555" --progress=false
 fi
