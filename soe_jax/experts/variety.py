@@ -1,8 +1,8 @@
 """How varied a batch of demonstrations is, read from what they commanded (`experts --measure`): the
 approach (straight, or arced to the left or the right of the straight line to the grasp), which of
 the object's symmetric equivalents the demonstrator chose (the pair of faces the fingers closed on; for
-Square, whose handle is the nut's one grasp, which of the two nearest square orientations the nut was
-turned to on its way to the peg), the spread of the hand's path length, how many hover or pause, and
+Square, whose handle is the nut's one grasp, whether the nut was turned the short way to square on its
+way to the peg or to another square orientation), the spread of the hand's path length, how many hover or pause, and
 the episodes' lengths. The same numbers for scripted and varied demonstrators, side by side,
 say whether the varied ones meet their thresholds (`THRESHOLDS`).
 """
@@ -57,8 +57,10 @@ def episode(actions: np.ndarray, object_pose: np.ndarray, face_period: float = n
   released = np.flatnonzero(grip[t_close:] < 0)
   # The carry (Can's, Square's): from the grasp to the release, where the demonstration places the object.
   carry = _side(pos[t_close : t_close + released[0] + 1, :2]) if released.size else None
-  yaws = _quat_yaw(object_pose[[t_close, t_close + released[0]] if released.size else [t_close], 3:7])
-  turn = int(abs(np.angle(np.exp(1j * (yaws[-1] - yaws[0])))) > np.pi / 4) if released.size else None
+  turn = None
+  if released.size:
+    grasped, placed = _quat_yaw(object_pose[[t_close, t_close + released[0]], 3:7])
+    turn = int(abs(np.angle(np.exp(1j * (placed - grasped)))) > np.pi / 4)
   rel_yaw = np.mod(_yaw_of_rot6d(actions[t_close, 3:9]) - _quat_yaw(object_pose[t_close, 3:7]), np.pi)
   face = int(np.round(rel_yaw / face_period)) % 2
   step = np.linalg.norm(np.diff(pos, axis=0), axis=1)
