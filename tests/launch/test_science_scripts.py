@@ -1,0 +1,90 @@
+"""The science issues' launch scripts (`launch/why_own_successes.sh`, `launch/protocol.sh`) start
+commands that exist with arms that load: every part run with a stand-in `python` that records its
+command lines, each campaign line parsed with the campaign's flags and its methods' configs loaded and
+checked (nothing run, nothing compiled), so a typo fails here, not an hour into a campaign."""
+
+import importlib
+import os
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+from soe_jax import __main__ as dispatcher
+from soe_jax.analysis import campaign as campaign_lib
+from soe_jax.commands import campaign
+from soe_jax.runtime import cli, configfile
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+SEP = "\x1f"
+
+
+def _lines(tmp_path, script: str, *args: str) -> list[list[str]]:
+  """The `python` command lines `bash launch/SCRIPT ARGS` runs, each as its argv after `python`."""
+  shim, log = tmp_path / "bin", tmp_path / "lines"
+  shim.mkdir(exist_ok=True)
+  (shim / "python").write_text(f'#!/usr/bin/env bash\nprintf "%s{SEP}" "$@" >> "{log}"; echo >> "{log}"\n')
+  (shim / "python").chmod(0o755)
+  log.write_text("")
+  env = dict(os.environ, PATH=f"{shim}:{os.environ['PATH']}", RESULTS=str(tmp_path / "results"))
+  p = subprocess.run(["bash", f"launch/{script}", *args], cwd=ROOT, env=env, capture_output=True, text=True)
+  assert p.returncode == 0, p.stderr
+  return [line.split(SEP)[:-1] for line in log.read_text().splitlines()]
+
+
+def _campaign_configs(monkeypatch, argv: list[str]) -> dict:
+  """A `-m soe_jax campaign ...` line parsed with a fresh copy of the command's flags -> its methods'
+  configs, loaded and checked as the campaign would before it writes anything."""
+  fresh = importlib.reload(campaign)
+  monkeypatch.setattr(sys, "argv", [str(ROOT / "soe_jax" / "__main__.py"), *argv[2:]])
+  name = "python -m soe_jax campaign"
+  assert cli.parse(fresh.FLAGS, [name, *argv[3:]], required=("config",)) == [name]
+  spec, overrides = fresh.FLAGS.config_file()
+  return campaign_lib.configs(spec, overrides, fresh.FLAGS.methods)[2]
+
+
+@pytest.fixture
+def parsed(monkeypatch, tmp_path):
+  monkeypatch.chdir(ROOT)
+  try:
+    yield lambda script, *args: [
+      (argv, _campaign_configs(monkeypatch, argv) if argv[2] == "campaign" else None)
+      for argv in _lines(tmp_path, script, *args)
+    ]
+  finally:
+    importlib.reload(campaign)  # (unparsed again, for whoever imports it next)
+
+
+@pytest.mark.parametrize("part", ["a", "b", "c"])
+def test_every_part_of_why_own_successes_starts_commands_that_load(parsed, part):
+  lines = parsed("why_own_successes.sh", "1", "/tmp/runs-why", part)
+  assert lines and all(argv[:2] == ["-m", "soe_jax"] and argv[2] in dispatcher.COMMANDS for argv, _ in lines)
+  configs = [c for _, found in lines if found for c in found.values()]
+  assert configs and all(c.seed == 1 and c.env.task == "lift" for c in configs)
+  if part == "c":  # the re-evaluation: start states no experiment had used
+    assert {c.eval.seed for c in configs} == {55555} and {c.rounds.aligned_windows for c in configs} == {False, True}
+
+
+@pytest.mark.parametrize("part", ["sime-count-10", "varied-count-5", "sime-10", "style-3"])
+def test_every_part_of_the_protocol_script_starts_commands_that_load(parsed, part):
+  lines = parsed("protocol.sh", part, "2", "/tmp/runs-protocol")
+  count = int(part.rsplit("-", 1)[1])
+  ((_, configs),) = [(argv, found) for argv, found in lines if found]
+  arms = configs.values()
+  assert {c.data.num_demos for c in arms} == {count} and "control" in {c.method.split("-")[0] for c in arms}
+  if part.startswith("sime"):
+    assert all(c.rounds.refit == "scratch" and c.policy.horizon == 20 for c in arms)
+  styles = {c.data.demo_style for c in arms}
+  expected = {"scripted", "varied"} if part.startswith("style") else {"varied" if "varied" in part else "scripted"}
+  assert styles == expected
+  for argv, _ in lines:
+    if argv[2] == "latent":  # the latent study's configs load too
+      spec = next(a.split("=", 1)[1] for a in argv if a.startswith("--config="))
+      assert configfile.load(spec).data.demo_style in styles
+
+
+def test_a_bad_part_is_refused_before_anything_runs(tmp_path):
+  for part, says in (("bogus-3", "unknown part"), ("sime-x", "demonstration count")):
+    p = subprocess.run(["bash", "launch/protocol.sh", part, "0"], cwd=ROOT, capture_output=True, text=True)
+    assert p.returncode == 2 and says in p.stderr
