@@ -92,24 +92,14 @@ def sample_varied_params(key):
   return dict(p, yaw=uniform(k[3], -jnp.pi / 2, jnp.pi / 2))
 
 
-VARIED = script.ScriptedExpert(
-  plans=(
-    settle,
-    script.arced(above, "side", "arc", "hover"),
-    script.paced(descend, "descend_speed"),
-    close,
-    lift,
-    script.arced(carry, "carry_side", "carry_arc", "carry_hover"),
-    lower,
-    release,
-    retreat,
-  ),  # fmt: skip
-  sample_params=sample_varied_params,
-  resume=resume,
-)
-
 EXPERT = script.ScriptedExpert(
   plans=(settle, above, descend, close, lift, carry, lower, release, retreat),
   sample_params=sample_params,
+  resume=resume,
+)
+
+VARIED = script.ScriptedExpert(
+  plans=lift_expert.styled_pick_and_place(*EXPERT.plans),
+  sample_params=sample_varied_params,
   resume=resume,
 )

@@ -66,6 +66,21 @@ def carry_styles(key) -> dict:
   return {f"carry_{k}": styles[k] for k in ("side", "arc", "hover")}
 
 
+def styled_pick_and_place(settle, above, descend, close, lift, carry, *place) -> tuple:
+  """A varied pick-and-place demonstrator's plans (Can's, Square's) from its scripted ones: the approach
+  and the carry arced and hovering by `sample_styles`' and `carry_styles`' parameters, the descent at
+  its own pace; the other phases as they are."""
+  return (
+    settle,
+    script.arced(above, "side", "arc", "hover"),
+    script.paced(descend, "descend_speed"),
+    close,
+    lift,
+    script.arced(carry, "carry_side", "carry_arc", "carry_hover"),
+    *place,
+  )
+
+
 def sample_varied_params(key):
   k = jax.random.split(key, 3)
   face = jax.random.randint(k[2], (), 0, 2).astype(jnp.float32)  # which pair of faces the fingers close on

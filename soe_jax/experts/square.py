@@ -130,25 +130,14 @@ def sample_varied_params(key):
   return dict(sample_params(k[0]), **lift_expert.sample_styles(k[1]), **lift_expert.carry_styles(k[2]), second=second)
 
 
-VARIED = script.ScriptedExpert(
-  plans=(
-    settle,
-    script.arced(above, "side", "arc", "hover"),
-    script.paced(descend, "descend_speed"),
-    close,
-    lift,
-    script.arced(carry, "carry_side", "carry_arc", "carry_hover"),
-    align,
-    insert,
-    release,
-    retreat,
-  ),  # fmt: skip
-  sample_params=sample_varied_params,
-  resume=resume,
-)
-
 EXPERT = script.ScriptedExpert(
   plans=(settle, above, descend, close, lift, carry, align, insert, release, retreat),
   sample_params=sample_params,
+  resume=resume,
+)
+
+VARIED = script.ScriptedExpert(
+  plans=lift_expert.styled_pick_and_place(*EXPERT.plans),
+  sample_params=sample_varied_params,
   resume=resume,
 )
