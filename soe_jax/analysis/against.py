@@ -27,6 +27,7 @@ def table(rows: list[dict], pairs: list[tuple[str, str]]) -> str:
   gained / lost, the pooled CMH p-value (as the campaign table's comparisons are)."""
   by = {(r["task"], r["method"]): r for r in rows if not r["variant"]}
   known = ", ".join(sorted({m for _, m in by}))
+  last = lambda run: run["outcomes"]["evaluate"].get(run["last"])  # its last round's per-state outcomes
   out = []
   for arm, ref in pairs:
     tasks = sorted(t for t, m in by if m == arm)
@@ -34,7 +35,6 @@ def table(rows: list[dict], pairs: list[tuple[str, str]]) -> str:
     if missing:
       raise UserError(f"no method {missing!r} in the campaign's runs (known: {known})")
     for task in tasks:
-      last = lambda run: run["outcomes"]["evaluate"].get(run["last"])
       refs = {run["seed"]: run for run in by[task, ref]["runs"]}
       pairs_ = [(last(refs[run["seed"]]), last(run)) for run in by[task, arm]["runs"] if run["seed"] in refs]
       c = aggregate.comparison(pairs_)
