@@ -11,6 +11,9 @@
 # PART c (about 35 min): the setting that brought SOE level with the control on 3 seeds (aligned windows)
 #   re-evaluated on evaluation start states no experiment had used (eval.seed 55555): control, dp, soe
 #   and both with aligned windows, to results/why-own-successes-eval55555/.
+# PART square (about 60-90 min): the decisive result (aligned windows) repeated on Square, where the harm
+#   is largest: control, dp, soe and both with aligned windows on configs/square.py:cpu (SQUARE_CONFIG),
+#   to results/why-own-successes-square/ (work directory WORKDIR-square).
 # PART all: a and b, one after the other (too long for one session on this CPU).
 # Work directories outside the work tree (WORKDIR, default /work/runs-why; part b uses WORKDIR-beta);
 # re-running resumes. CONFIG (default configs/lift.py:cpu) and RESULTS (default results) may be set in the
@@ -19,6 +22,7 @@ set -euo pipefail
 seed=${1:?the training seed}
 runs=${2:-/work/runs-why}
 part=${3:-all}
+case $part in a|b|c|all|square) ;; *) echo "unknown part '$part'; known: a, b, c, square, all" >&2; exit 2;; esac
 config=${CONFIG:-configs/lift.py:cpu}
 out=${RESULTS:-results}
 if [[ $part == a || $part == all ]]; then
@@ -44,4 +48,9 @@ if [[ $part == c ]]; then
   python -m soe_jax campaign --config="$config" --config.seed="$seed" --config.eval.seed=55555 \
     --methods=control,dp,soe,dp+aligned=true,soe+aligned=true \
     --workdir="$runs-eval55555" --results="$out/why-own-successes-eval55555" --progress=false
+fi
+if [[ $part == square ]]; then
+  python -m soe_jax campaign --config="${SQUARE_CONFIG:-configs/square.py:cpu}" --config.seed="$seed" \
+    --methods=control,dp,soe,dp+aligned=true,soe+aligned=true \
+    --workdir="$runs-square" --results="$out/why-own-successes-square" --progress=false
 fi
