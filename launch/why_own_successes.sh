@@ -6,8 +6,9 @@
 #   2 and 3 (alpha 0, the re-fit's demonstration share, aligned windows), exported to
 #   results/why-own-successes/lift/seed<k>/; then the relabelled arms (labels against states) from its dp
 #   and soe runs, exported beside; then the fidelity study on its dp, soe and soe alpha=0 runs.
-# PART b (about 65 min): the KL weight's dose-response, each beta with a round 0 of its own, with its own
-#   control and soe, to results/why-own-successes-beta/; then the fidelity study on soe and beta = 0.
+# PART b (about 80 min): the KL weight's dose-response, each beta with a round 0 of its own, with its own
+#   control and soe, to results/why-own-successes-beta/; then the fidelity study on soe and beta = 0, and
+#   the latent study (effective dimensions) of each beta's round 0 to results/why-own-successes-beta-latent/.
 # PART c (about 35 min): the setting that brought SOE level with the control on 3 seeds (aligned windows)
 #   re-evaluated on evaluation start states no experiment had used (eval.seed 55555): control, dp, soe
 #   and both with aligned windows, to results/why-own-successes-eval55555/.
@@ -43,6 +44,11 @@ if [[ $part == b || $part == all ]]; then
     --workdir="$runs-beta" --results="$out/why-own-successes-beta" --progress=false
   base="$runs-beta/lift/seed$seed"
   python -m soe_jax fidelity "$base/soe" "$base/soe-beta0" --out="$out/fidelity/lift_beta_seed$seed.json"
+  for beta in 0.001 0.0001 1e-05 0; do  # the effective dimensions of each beta's round 0 (its own round 0)
+    python -m soe_jax latent --config="$config" --config.seed="$seed" --config.policy.bypass.beta="$beta" \
+      --config.rounds.round0_dir="$base/round0" --workdir="$runs-beta-latent/lift/seed$seed/beta$beta" \
+      --out="$out/why-own-successes-beta-latent/lift_beta${beta}_seed$seed.json" --progress=false
+  done
 fi
 if [[ $part == c ]]; then
   python -m soe_jax campaign --config="$config" --config.seed="$seed" --config.eval.seed=55555 \
