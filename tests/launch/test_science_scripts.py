@@ -66,7 +66,8 @@ def test_every_part_of_why_own_successes_starts_commands_that_load(parsed, part)
   if part == "b":  # each beta's effective dimensions, from the round 0 its campaign arm fitted
     latents = [argv for argv, _ in lines if argv[2] == "latent"]
     assert sorted(a for argv in latents for a in argv if "bypass.beta" in a) == [
-      f"--config.policy.bypass.beta={b}" for b in ("0", "0.0001", "0.001", "1e-05")]
+      f"--config.policy.bypass.beta={b}" for b in ("0", "0.0001", "0.001", "1e-05")
+    ]
     assert all("--config.rounds.round0_dir=/tmp/runs-why-beta/lift/seed1/round0" in argv for argv in latents)
   if part == "c":  # the re-evaluation: start states no experiment had used
     assert {c.eval.seed for c in configs} == {55555}
