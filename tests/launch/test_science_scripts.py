@@ -97,3 +97,9 @@ def test_a_bad_part_is_refused_before_anything_runs(tmp_path):
   for part, says in (("bogus-3", "unknown part"), ("sime-x", "demonstration count")):
     p = subprocess.run(["bash", "launch/protocol.sh", part, "0"], cwd=ROOT, capture_output=True, text=True)
     assert p.returncode == 2 and says in p.stderr
+
+
+def test_an_unknown_part_is_refused_before_anything_runs(tmp_path):
+  p = subprocess.run(["bash", "launch/why_own_successes.sh", "1", str(tmp_path / "runs"), "d"], cwd=ROOT,
+                     capture_output=True, text=True)  # fmt: skip
+  assert p.returncode == 2 and "known: a, b, c, square, all" in p.stderr and not (tmp_path / "runs").exists()
