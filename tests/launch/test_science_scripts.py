@@ -93,13 +93,16 @@ def test_every_part_of_the_protocol_script_starts_commands_that_load(parsed, par
       assert configfile.load(spec).data.demo_style in styles
 
 
-def test_a_bad_part_is_refused_before_anything_runs(tmp_path):
-  for part, says in (("bogus-3", "unknown part"), ("sime-x", "demonstration count")):
-    p = subprocess.run(["bash", "launch/protocol.sh", part, "0"], cwd=ROOT, capture_output=True, text=True)
-    assert p.returncode == 2 and says in p.stderr
-
-
-def test_an_unknown_part_is_refused_before_anything_runs(tmp_path):
-  p = subprocess.run(["bash", "launch/why_own_successes.sh", "1", str(tmp_path / "runs"), "d"], cwd=ROOT,
-                     capture_output=True, text=True)  # fmt: skip
-  assert p.returncode == 2 and "known: a, b, c, square, all" in p.stderr and not (tmp_path / "runs").exists()
+@pytest.mark.parametrize(
+  "script, args, says",
+  [
+    ("protocol.sh", ["bogus-3", "0", "{runs}"], "unknown part"),
+    ("protocol.sh", ["sime-x", "0", "{runs}"], "demonstration count"),
+    ("why_own_successes.sh", ["1", "{runs}", "d"], "known: a, b, c, square, all"),
+  ],
+)
+def test_a_bad_part_is_refused_before_anything_runs(tmp_path, script, args, says):
+  runs = tmp_path / "runs"
+  argv = [a.format(runs=runs) for a in args]
+  p = subprocess.run(["bash", f"launch/{script}", *argv], cwd=ROOT, capture_output=True, text=True)
+  assert p.returncode == 2 and says in p.stderr and not runs.exists()
