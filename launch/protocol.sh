@@ -12,15 +12,47 @@
 # PART style-N: dp, sime, soe and the control on scripted and on varied demonstrations (N of each,
 #   the present protocol), one invocation, to results/demo-style-campaign/nN/; then the latent study
 #   (effective dimensions) on each, to results/latent-style/.
+# PART main-TASK (TASK lift, can or square): the main campaign on the protocol docs/protocol.md picked
+#   (the `cpu` preset once it is applied): dp, sime, soe, soe_steer, the control and both expert_data
+#   arms, one round, evaluated on start states neither science issue used (eval.seed 33333), one
+#   invocation, to results/protocol-main/TASK/.
+# PART main-TASK-1, main-TASK-2: the same arms in two invocations, each with its own round 0 and
+#   control (control, dp, sime, soe | control, soe_steer, dp+expert_data, soe+expert_data), for a seed
+#   that would not finish within one session, to results/protocol-main/TASK-1/ and TASK-2/.
+# PART rounds-lift: dp, sime, soe and the control on Lift over 3 rounds, eval.seed 33333, one
+#   invocation, to results/protocol-rounds/lift/.
 # Work directories outside the work tree (WORKDIR, default /work/runs-protocol, one per part);
-# re-running resumes. CONFIG (default configs/lift.py:cpu) and RESULTS (default results) may be set in
-# the environment, e.g. CONFIG=configs/lift.py:smoke RESULTS=/tmp/protocol for a quick check.
+# re-running resumes. CONFIG (default configs/lift.py:cpu; the main and rounds parts take
+# configs/TASK.py:PRESET, PRESET default cpu) and RESULTS (default results) may be set in the
+# environment, e.g. CONFIG=configs/lift.py:smoke PRESET=smoke RESULTS=/tmp/protocol for a quick check.
 set -euo pipefail
-part=${1:?sime-count-N, varied-count-N, sime-N or style-N}
+part=${1:?sime-count-N, varied-count-N, sime-N, style-N, main-TASK[-1|-2] or rounds-lift}
 seed=${2:?the training seed}
 runs=${3:-/work/runs-protocol}
 config=${CONFIG:-configs/lift.py:cpu}
 out=${RESULTS:-results}
+eval_seed=33333  # the main campaign's evaluation states: used by neither science issue (77777, 55555)
+main_arms=(control,dp,sime,soe control,soe_steer,dp+expert_data,soe+expert_data)
+if [[ $part =~ ^main-(lift|can|square)(-([12]))?$ ]]; then
+  task=${BASH_REMATCH[1]} half=${BASH_REMATCH[3]}
+  methods=${main_arms[0]},${main_arms[1]#control,}
+  [[ -n $half ]] && methods=${main_arms[half - 1]}
+  python -m soe_jax campaign --config="configs/$task.py:${PRESET:-cpu}" --config.seed="$seed" \
+    --config.eval.seed=$eval_seed --methods="$methods" --workdir="$runs/${part#main-}" \
+    --results="$out/protocol-main/${part#main-}" --progress=false
+  exit
+fi
+if [[ $part == rounds-lift ]]; then
+  python -m soe_jax campaign --config="configs/lift.py:${PRESET:-cpu}" --config.seed="$seed" \
+    --config.eval.seed=$eval_seed --config.rounds.num_rounds=3 --methods=control,dp,sime,soe \
+    --workdir="$runs/rounds-lift" --results="$out/protocol-rounds/lift" --progress=false
+  exit
+fi
+case ${part%-*} in
+  sime-count|varied-count|sime|style) ;;
+  *) echo "$part: unknown part (sime-count-N, varied-count-N, sime-N, style-N, main-TASK[-1|-2] or rounds-lift)" >&2
+     exit 2 ;;
+esac
 count=${part##*-}
 [[ $count =~ ^[0-9]+$ ]] || { echo "$part: the part ends in its demonstration count, a number" >&2; exit 2; }
 campaign() {  # campaign METHODS NAME RESULTS
@@ -42,9 +74,5 @@ case ${part%-*} in
         --workdir="$runs/style-$count-latent/$s/seed$seed" --progress=false \
         --out="$out/latent-style/lift_n${count}_${s}_seed$seed.json"
     done
-    ;;
-  *)
-    echo "$part: unknown part (sime-count-N, varied-count-N, sime-N or style-N)" >&2
-    exit 2
     ;;
 esac

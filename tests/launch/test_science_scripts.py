@@ -94,10 +94,29 @@ def test_every_part_of_the_protocol_script_starts_commands_that_load(parsed, par
 
 
 @pytest.mark.parametrize(
+  "part, task, methods",
+  [
+    ("main-square", "square", "control dp sime soe soe_steer dp-expert_data soe-expert_data"),
+    ("main-can-1", "can", "control dp sime soe"),
+    ("main-can-2", "can", "control soe_steer dp-expert_data soe-expert_data"),
+    ("rounds-lift", "lift", "control dp sime soe"),
+  ],
+)
+def test_the_main_campaigns_parts_run_every_arm_with_its_control_on_new_evaluation_states(parsed, part, task, methods):
+  ((argv, configs),) = parsed("protocol.sh", part, "1", "/tmp/runs-protocol")
+  assert sorted(c.method for c in configs.values()) == sorted(methods.split())
+  rounds = 3 if part == "rounds-lift" else 1
+  assert all(c.env.task == task and c.seed == 1 and c.rounds.num_rounds == rounds for c in configs.values())
+  assert {c.eval.seed for c in configs.values()} == {33333}  # neither science issue's (77777, 55555)
+  assert f"--workdir=/tmp/runs-protocol/{part.removeprefix('main-')}" in argv
+
+
+@pytest.mark.parametrize(
   "script, args, says",
   [
     ("protocol.sh", ["bogus-3", "0", "{runs}"], "unknown part"),
     ("protocol.sh", ["sime-x", "0", "{runs}"], "demonstration count"),
+    ("protocol.sh", ["main-transport", "0", "{runs}"], "unknown part"),
     ("why_own_successes.sh", ["1", "{runs}", "d"], "known: a, b, c, square, all"),
   ],
 )
