@@ -24,7 +24,7 @@ import numpy as np
 from soe_jax import metrics
 from soe_jax.analysis import action_range, fidelity, kept
 from soe_jax.analysis.tables import markdown, pct, rate
-from soe_jax.experiment import rundir, runlog
+from soe_jax.experiment import rundir, runlog, schema
 from soe_jax.registry import Registry
 
 Records = list[tuple[str, dict]]  # (name, record) in file order
@@ -34,9 +34,11 @@ PAPER_EFFECTIVE_DIMS = {"lift": 8, "can": 8, "square": 10, "transport": 16}
 
 
 def _setting(config: dict, first: dict) -> str:
-  """The fields in which `config` differs from the first record's (or `-`)."""
+  """The settings in which `config` differs from the first record's (or `-`): not its seed, where its
+  round 0 lives or how it is logged."""
   a, b = (runlog.flatten(rundir.with_added(c)) for c in (first, config))  # older records lack added fields
-  diff = [f"{k}={b.get(k)}" for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
+  setting = lambda k: k not in schema.NOT_SETTINGS and not k.startswith(schema.LOGGING)
+  diff = [f"{k}={b.get(k)}" for k in sorted(set(a) | set(b)) if setting(k) and a.get(k) != b.get(k)]
   return ", ".join(diff) or "-"
 
 
