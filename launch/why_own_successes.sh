@@ -15,6 +15,9 @@
 # PART square (about 60-90 min): the decisive result (aligned windows) repeated on Square, where the harm
 #   is largest: control, dp, soe and both with aligned windows on configs/square.py:cpu (SQUARE_CONFIG),
 #   to results/why-own-successes-square/ (work directory WORKDIR-square).
+# PART d (about 45 min): the KL weight that README item 6 picks (BETA, required) re-evaluated on evaluation
+#   start states no experiment had used (eval.seed 44444): control, soe, soe at BETA, soe with aligned
+#   windows and soe with both, to results/why-own-successes-eval44444/ (work directory WORKDIR-eval44444).
 # PART all: a and b, one after the other (too long for one session on this CPU).
 # Work directories outside the work tree (WORKDIR, default /work/runs-why; part b uses WORKDIR-beta);
 # re-running resumes. CONFIG (default configs/lift.py:cpu) and RESULTS (default results) may be set in the
@@ -23,7 +26,8 @@ set -euo pipefail
 seed=${1:?the training seed}
 runs=${2:-/work/runs-why}
 part=${3:-all}
-case $part in a|b|c|all|square) ;; *) echo "unknown part '$part'; known: a, b, c, square, all" >&2; exit 2;; esac
+case $part in a|b|c|d|all|square) ;; *) echo "unknown part '$part'; known: a, b, c, d, square, all" >&2; exit 2;; esac
+[[ $part != d || -n ${BETA:-} ]] || { echo "part d needs BETA, the KL weight README item 6 picks" >&2; exit 2; }
 config=${CONFIG:-configs/lift.py:cpu}
 out=${RESULTS:-results}
 if [[ $part == a || $part == all ]]; then
@@ -54,6 +58,11 @@ if [[ $part == c ]]; then
   python -m soe_jax campaign --config="$config" --config.seed="$seed" --config.eval.seed=55555 \
     --methods=control,dp,soe,dp+aligned=true,soe+aligned=true \
     --workdir="$runs-eval55555" --results="$out/why-own-successes-eval55555" --progress=false
+fi
+if [[ $part == d ]]; then
+  python -m soe_jax campaign --config="$config" --config.seed="$seed" --config.eval.seed=44444 \
+    --methods="control,soe,soe+beta=$BETA,soe+aligned=true,soe+beta=$BETA+aligned=true" \
+    --workdir="$runs-eval44444" --results="$out/why-own-successes-eval44444" --progress=false
 fi
 if [[ $part == square ]]; then
   python -m soe_jax campaign --config="${SQUARE_CONFIG:-configs/square.py:cpu}" --config.seed="$seed" \

@@ -56,8 +56,9 @@ def parsed(monkeypatch, tmp_path):
     importlib.reload(campaign)  # (unparsed again, for whoever imports it next)
 
 
-@pytest.mark.parametrize("part", ["a", "b", "c", "square"])
-def test_every_part_of_why_own_successes_starts_commands_that_load(parsed, part):
+@pytest.mark.parametrize("part", ["a", "b", "c", "d", "square"])
+def test_every_part_of_why_own_successes_starts_commands_that_load(parsed, monkeypatch, part):
+  monkeypatch.setenv("BETA", "1e-05")
   lines = parsed("why_own_successes.sh", "1", "/tmp/runs-why", part)
   assert lines and all(argv[:2] == ["-m", "soe_jax"] and argv[2] in dispatcher.COMMANDS for argv, _ in lines)
   configs = [c for _, found in lines if found for c in found.values()]
@@ -71,7 +72,15 @@ def test_every_part_of_why_own_successes_starts_commands_that_load(parsed, part)
     assert all("--config.rounds.round0_dir=/tmp/runs-why-beta/lift/seed1/round0" in argv for argv in latents)
   if part == "c":  # the re-evaluation: start states no experiment had used
     assert {c.eval.seed for c in configs} == {55555}
-  if part in ("c", "square"):
+  if part == "d":  # the picked KL weight, alone and with aligned windows, on states no experiment had used
+    assert {c.eval.seed for c in configs} == {44444} and len(configs) == 5
+    assert {(c.policy.bypass.beta, c.rounds.aligned_windows) for c in configs if c.method != "control"} == {
+      (0.001, False),
+      (1e-05, False),
+      (0.001, True),
+      (1e-05, True),
+    }
+  if part in ("c", "d", "square"):
     assert {c.rounds.aligned_windows for c in configs} == {False, True}
 
 
@@ -117,11 +126,13 @@ def test_the_main_campaigns_parts_run_every_arm_with_its_control_on_new_evaluati
     ("protocol.sh", ["bogus-3", "0", "{runs}"], "unknown part"),
     ("protocol.sh", ["sime-x", "0", "{runs}"], "demonstration count"),
     ("protocol.sh", ["main-transport", "0", "{runs}"], "unknown part"),
-    ("why_own_successes.sh", ["1", "{runs}", "d"], "known: a, b, c, square, all"),
+    ("why_own_successes.sh", ["1", "{runs}", "e"], "known: a, b, c, d, square, all"),
+    ("why_own_successes.sh", ["1", "{runs}", "d"], "needs BETA"),
   ],
 )
 def test_a_bad_part_is_refused_before_anything_runs(tmp_path, script, args, says):
   runs = tmp_path / "runs"
   argv = [a.format(runs=runs) for a in args]
-  p = subprocess.run(["bash", f"launch/{script}", *argv], cwd=ROOT, capture_output=True, text=True)
+  env = {k: v for k, v in os.environ.items() if k != "BETA"}
+  p = subprocess.run(["bash", f"launch/{script}", *argv], cwd=ROOT, env=env, capture_output=True, text=True)
   assert p.returncode == 2 and says in p.stderr and not runs.exists()
