@@ -44,9 +44,7 @@ def _settings(workdir: str) -> dict:
   """The run's saved config, flattened, without what seeds, places and logs it."""
   with open(os.path.join(workdir, "config.json")) as f:
     saved = rundir.with_added(json.load(f))  # older runs lack added fields
-  return {
-    k: v for k, v in runlog.flatten(saved).items() if k not in schema.NOT_SETTINGS and not k.startswith(schema.LOGGING)
-  }
+  return {k: v for k, v in runlog.flatten(saved).items() if schema.is_setting(k)}
 
 
 def _variants(settings: list[dict]) -> list[str]:

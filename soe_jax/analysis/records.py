@@ -37,8 +37,7 @@ def _setting(config: dict, first: dict) -> str:
   """The settings in which `config` differs from the first record's (or `-`): not its seed, where its
   round 0 lives or how it is logged."""
   a, b = (runlog.flatten(rundir.with_added(c)) for c in (first, config))  # older records lack added fields
-  setting = lambda k: k not in schema.NOT_SETTINGS and not k.startswith(schema.LOGGING)
-  diff = [f"{k}={b.get(k)}" for k in sorted(set(a) | set(b)) if setting(k) and a.get(k) != b.get(k)]
+  diff = [f"{k}={b.get(k)}" for k in sorted(set(a) | set(b)) if schema.is_setting(k) and a.get(k) != b.get(k)]
   return ", ".join(diff) or "-"
 
 

@@ -11,6 +11,14 @@ from __future__ import annotations
 LOGGING = "log."
 # Fields that are no setting of an experiment: its training seed and where its shared round 0 lives.
 NOT_SETTINGS = ("seed", "rounds.round0_dir")
+
+
+def is_setting(key: str) -> bool:
+  """Whether the flattened field `key` is a setting of the experiment: not its seed, where its round 0
+  lives or how it is logged."""
+  return key not in NOT_SETTINGS and not key.startswith(LOGGING)
+
+
 # What a method's run and its control may differ in: the arm itself (how it explores, what it keeps).
 # (The action range changes round 0 too; its arms pair with the control of the default range.)
 ARM = ("method", "explore.", "rounds.new_data", "rounds.select", "rounds.length_cap", "policy.action_range",
