@@ -12,9 +12,9 @@
 # PART c (about 35 min): the setting that brought SOE level with the control on 3 seeds (aligned windows)
 #   re-evaluated on evaluation start states no experiment had used (eval.seed 55555): control, dp, soe
 #   and both with aligned windows, to results/why-own-successes-eval55555/.
-# PART square (about 60-90 min): the decisive result (aligned windows) repeated on Square, where the harm
-#   is largest: control, dp, soe and both with aligned windows on configs/square.py:cpu (SQUARE_CONFIG),
-#   to results/why-own-successes-square/ (work directory WORKDIR-square).
+# PART square (about 60-90 min): the settings that moved SOE most on Lift repeated on Square, where the
+#   harm is largest: part d's arms (control, soe, soe at BETA, soe with aligned windows, soe with both) on
+#   configs/square.py:cpu (SQUARE_CONFIG), to results/why-own-successes-square/ (work directory WORKDIR-square).
 # PART d (about 45 min): the KL weight that README item 6 picks (BETA, required) re-evaluated on evaluation
 #   start states no experiment had used (eval.seed 44444): control, soe, soe at BETA, soe with aligned
 #   windows and soe with both, to results/why-own-successes-eval44444/ (work directory WORKDIR-eval44444).
@@ -27,7 +27,8 @@ seed=${1:?the training seed}
 runs=${2:-/work/runs-why}
 part=${3:-all}
 case $part in a|b|c|d|all|square) ;; *) echo "unknown part '$part'; known: a, b, c, d, square, all" >&2; exit 2;; esac
-[[ $part != d || -n ${BETA:-} ]] || { echo "part d needs BETA, the KL weight README item 6 picks" >&2; exit 2; }
+[[ ($part != d && $part != square) || -n ${BETA:-} ]] || {
+  echo "part $part needs BETA, the KL weight README item 6 picks" >&2; exit 2; }
 config=${CONFIG:-configs/lift.py:cpu}
 out=${RESULTS:-results}
 if [[ $part == a || $part == all ]]; then
@@ -66,6 +67,6 @@ if [[ $part == d ]]; then
 fi
 if [[ $part == square ]]; then
   python -m soe_jax campaign --config="${SQUARE_CONFIG:-configs/square.py:cpu}" --config.seed="$seed" \
-    --methods=control,dp,soe,dp+aligned=true,soe+aligned=true \
+    --methods="control,soe,soe+beta=$BETA,soe+aligned=true,soe+beta=$BETA+aligned=true" \
     --workdir="$runs-square" --results="$out/why-own-successes-square" --progress=false
 fi

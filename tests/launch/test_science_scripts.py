@@ -72,8 +72,10 @@ def test_every_part_of_why_own_successes_starts_commands_that_load(parsed, monke
     assert all("--config.rounds.round0_dir=/tmp/runs-why-beta/lift/seed1/round0" in argv for argv in latents)
   if part == "c":  # the re-evaluation: start states no experiment had used
     assert {c.eval.seed for c in configs} == {55555}
-  if part == "d":  # the picked KL weight, alone and with aligned windows, on states no experiment had used
-    assert {c.eval.seed for c in configs} == {44444} and len(configs) == 5
+  if part == "d":  # the re-evaluation: states no experiment had used
+    assert {c.eval.seed for c in configs} == {44444}
+  if part in ("d", "square"):  # the picked KL weight, alone and with aligned windows, beside soe and the control
+    assert len(configs) == 5 and sum(c.method == "control" for c in configs) == 1
     assert {(c.policy.bypass.beta, c.rounds.aligned_windows) for c in configs if c.method != "control"} == {
       (0.001, False),
       (1e-05, False),
@@ -128,6 +130,7 @@ def test_the_main_campaigns_parts_run_every_arm_with_its_control_on_new_evaluati
     ("protocol.sh", ["main-transport", "0", "{runs}"], "unknown part"),
     ("why_own_successes.sh", ["1", "{runs}", "e"], "known: a, b, c, d, square, all"),
     ("why_own_successes.sh", ["1", "{runs}", "d"], "needs BETA"),
+    ("why_own_successes.sh", ["1", "{runs}", "square"], "needs BETA"),
   ],
 )
 def test_a_bad_part_is_refused_before_anything_runs(tmp_path, script, args, says):
