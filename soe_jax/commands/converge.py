@@ -50,6 +50,6 @@ def main(argv: list[str] | None = None) -> None:
     __doc__,
     argv,
     required=("config",),
-    interrupted="interrupted: the finished phases are saved; run the same command to resume",
+    interrupted=cli.PHASES_SAVED,
     compiles=True,
   )

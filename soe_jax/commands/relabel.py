@@ -54,4 +54,4 @@ def _relabel(argv: list[str]) -> None:
 
 def main(argv: list[str] | None = None) -> None:
   cli.run(_relabel, FLAGS, __doc__, argv, required=("labels",),
-          interrupted="interrupted: the finished phases are saved; run the same command to resume", compiles=True)  # fmt: skip
+          interrupted=cli.PHASES_SAVED, compiles=True)  # fmt: skip

@@ -125,6 +125,10 @@ def help_text(doc: str, flag_values: Flags) -> str:
   return doc.strip() + ("\n\nflags:\n" + "\n".join(lines) if lines else "") + "\n"
 
 
+# What a command that saves each finished phase prints on Ctrl-C (`run`'s `interrupted`).
+PHASES_SAVED = "interrupted: the finished phases are saved; run the same command to resume"
+
+
 def run(
   main: Callable[[list[str]], None],
   flag_values: Flags,
