@@ -31,6 +31,8 @@ case $part in a|b|c|d|all|square) ;; *) echo "unknown part '$part'; known: a, b,
   echo "part $part needs BETA, the KL weight README item 6 picks" >&2; exit 2; }
 config=${CONFIG:-configs/lift.py:cpu}
 out=${RESULTS:-results}
+# Parts d and square: the picked KL weight and aligned windows, each alone and together, beside soe.
+beta_arms="control,soe,soe+beta=${BETA:-},soe+aligned=true,soe+beta=${BETA:-}+aligned=true"
 if [[ $part == a || $part == all ]]; then
   results=$out/why-own-successes
   python -m soe_jax campaign --config="$config" --config.seed="$seed" \
@@ -62,11 +64,9 @@ if [[ $part == c ]]; then
 fi
 if [[ $part == d ]]; then
   python -m soe_jax campaign --config="$config" --config.seed="$seed" --config.eval.seed=44444 \
-    --methods="control,soe,soe+beta=$BETA,soe+aligned=true,soe+beta=$BETA+aligned=true" \
-    --workdir="$runs-eval44444" --results="$out/why-own-successes-eval44444" --progress=false
+    --methods="$beta_arms" --workdir="$runs-eval44444" --results="$out/why-own-successes-eval44444" --progress=false
 fi
 if [[ $part == square ]]; then
   python -m soe_jax campaign --config="${SQUARE_CONFIG:-configs/square.py:cpu}" --config.seed="$seed" \
-    --methods="control,soe,soe+beta=$BETA,soe+aligned=true,soe+beta=$BETA+aligned=true" \
-    --workdir="$runs-square" --results="$out/why-own-successes-square" --progress=false
+    --methods="$beta_arms" --workdir="$runs-square" --results="$out/why-own-successes-square" --progress=false
 fi
