@@ -19,6 +19,9 @@
 #   start states no experiment had used (eval.seed 44444): control, soe, soe at BETA, soe with aligned
 #   windows and soe with both, to results/why-own-successes-eval44444/ (work directory WORKDIR-eval44444).
 # PART all: a and b, one after the other (too long for one session on this CPU).
+# Every part measures its arms as the `cpu` preset defined them before it adopted what they found (the
+# KL weight 1e-5 and aligned windows, commit f21cbfe): with a config whose soe arm has either, its `soe`
+# would be another arm than the committed results' `soe`, so the script refuses and names that commit.
 # Work directories outside the work tree (WORKDIR, default /work/runs-why; part b uses WORKDIR-beta);
 # re-running resumes. CONFIG (default configs/lift.py:cpu) and RESULTS (default results) may be set in the
 # environment, e.g. CONFIG=configs/lift.py:smoke RESULTS=/tmp/why for a quick check of the whole path.
@@ -31,6 +34,18 @@ case $part in a|b|c|d|all|square) ;; *) echo "unknown part '$part'; known: a, b,
   echo "part $part needs BETA, the KL weight README item 6 picks" >&2; exit 2; }
 config=${CONFIG:-configs/lift.py:cpu}
 out=${RESULTS:-results}
+before_adoption=f21cbfe
+spec=$config
+[[ $part == square ]] && spec=${SQUARE_CONFIG:-configs/square.py:cpu}
+python -c 'import sys; from soe_jax.runtime import configfile
+c = configfile.load(sys.argv[1], "soe")
+sys.exit((c.policy.bypass.beta, c.rounds.aligned_windows) != (1e-3, False))' "$spec" || {
+  echo "$spec: its soe arm has the KL weight or the aligned windows the cpu preset adopted from these" \
+    "experiments, so its arms would not be the committed results' arms; run this script at commit" \
+    "$before_adoption (git worktree add --detach DIR $before_adoption) or with CONFIG/SQUARE_CONFIG" \
+    "without them" >&2
+  exit 2
+}
 # Parts d and square: the picked KL weight and aligned windows, each alone and together, beside soe.
 beta_arms="control,soe,soe+beta=${BETA:-},soe+aligned=true,soe+beta=${BETA:-}+aligned=true"
 if [[ $part == a || $part == all ]]; then

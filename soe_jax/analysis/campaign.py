@@ -55,6 +55,11 @@ def configs(spec: str, overrides: dict, methods: list[str]) -> tuple[int, dict, 
     except ValueError as e:
       raise UserError(f"method {m!r}: {e}") from None
     validation.check(out[presets])
+  names = {}
+  for presets, c in out.items():  # (a variant that changes nothing under these presets names no arm)
+    if c.method in names:
+      raise UserError(f"methods {names[c.method]!r} and {presets!r} are the same arm {c.method!r} under {spec!r}")
+    names[c.method] = presets
   seeds = {int(c.seed) for c in out.values()}
   if len(seeds) != 1:
     raise UserError(f"the methods' configs have different seeds {sorted(seeds)}; give one with --config.seed=K")

@@ -142,6 +142,10 @@ def test_a_campaign_runs_its_methods_and_exports_their_commands(tmp_path):
   with pytest.raises(UserError, match=r"method 'sime\+oops'"):
     campaign.campaign("configs/lift.py:smoke", {}, ["sime+oops"], str(tmp_path / "x"), str(results), False)
   assert not os.path.exists(tmp_path / "x")  # nothing written for a bad method
+  # A variant that changes nothing under the config's presets (cpu's KL weight) is no second arm.
+  with pytest.raises(UserError, match=r"methods 'soe' and 'soe,beta=1e-05' are the same arm 'soe'"):
+    campaign.campaign("configs/lift.py:cpu", {}, ["soe", "soe+beta=1e-05"], str(tmp_path / "x"), str(results), False)
+  assert not os.path.exists(tmp_path / "x")
 
 
 def test_a_campaigns_seed_is_the_configs_unless_overridden():

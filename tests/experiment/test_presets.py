@@ -40,7 +40,7 @@ def test_variant_presets_set_and_name_their_field():
   assert rundir.round0_key(ablated) != rundir.round0_key(lift_config.get_config("soe"))  # a round 0 of its own
   mixed = lift_config.get_config("dp,demo_fraction=0.5,aligned=true")  # the re-fit's sampling: an arm's settings
   assert (mixed.method, mixed.rounds.demo_fraction, mixed.rounds.aligned_windows) == ("dp-demos0.5-aligned", 0.5, True)
-  assert lift_config.get_config("dp,aligned=false").method == "dp"
+  assert lift_config.get_config("dp,aligned=false").method == "dp"  # the default's value: no other arm
   assert rundir.round0_key(mixed) == rundir.round0_key(lift_config.get_config("dp"))  # round 0 shared
   old = lift_config.get_config("control,range=demonstrations")  # any method, the control too
   assert (old.method, old.policy.action_range, lift_config.get_config("").policy.action_range) == (
@@ -84,6 +84,29 @@ def test_cpu_preset_takes_each_tasks_demos_and_steps():
     6_000,
     4_000,
   )
+
+
+def test_cpu_preset_adopts_the_kl_weight_and_aligned_windows_and_its_variants_still_set_them():
+  """Under `cpu` the bypass's KL weight is 1e-5 and self-collected episodes' re-fit windows start at
+  decisions (RESULTS.md, "why own successes hurt"), for every arm but the oracles; `beta=`/`aligned=`
+  set them back, and an arm is named by what its variants change."""
+  for task in (lift_config, can_config, square_config):
+    for method in ("control", "dp", "sime", "soe", "soe_steer"):
+      c = task.get_config(f"cpu,{method}")
+      assert (c.method, c.policy.bypass.beta, c.rounds.aligned_windows) == (method, 1e-5, True)
+  assert lift_config.get_config("cpu,dp,expert_data").rounds.aligned_windows is False  # scripted episodes
+  assert (lift_config.get_config("").policy.bypass.beta, lift_config.get_config("").rounds.aligned_windows) == (
+    1e-3,
+    False,
+  )
+  old = lift_config.get_config("cpu,soe,beta=0.001,aligned=false")
+  assert (old.method, old.policy.bypass.beta, old.rounds.aligned_windows) == (
+    "soe-beta0.001-aligned_false",
+    1e-3,
+    False,
+  )
+  assert rundir.round0_key(old) != rundir.round0_key(lift_config.get_config("cpu,soe"))  # its own round 0
+  assert lift_config.get_config("cpu,soe,beta=1e-05,aligned=true").method == "soe"  # changes nothing
 
 
 def test_a_misspelled_override_suggests_the_field():

@@ -20,17 +20,27 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 SEP = "\x1f"
 
 
-def _lines(tmp_path, script: str, *args: str) -> list[list[str]]:
-  """The `python` command lines `bash launch/SCRIPT ARGS` runs, each as its argv after `python`."""
+def _run(tmp_path, script: str, *args: str) -> tuple[subprocess.CompletedProcess, list[list[str]]]:
+  """`bash launch/SCRIPT ARGS` with a stand-in `python` (`python -c` checks run for real) -> the run and
+  the `python -m` command lines it started, each as its argv after `python`."""
   shim, log = tmp_path / "bin", tmp_path / "lines"
   shim.mkdir(exist_ok=True)
-  (shim / "python").write_text(f'#!/usr/bin/env bash\nprintf "%s{SEP}" "$@" >> "{log}"; echo >> "{log}"\n')
+  (shim / "python").write_text(
+    f'#!/usr/bin/env bash\n[[ $1 == -c ]] && exec "{sys.executable}" "$@"\n'
+    f'printf "%s{SEP}" "$@" >> "{log}"; echo >> "{log}"\n'
+  )
   (shim / "python").chmod(0o755)
   log.write_text("")
   env = dict(os.environ, PATH=f"{shim}:{os.environ['PATH']}", RESULTS=str(tmp_path / "results"))
   p = subprocess.run(["bash", f"launch/{script}", *args], cwd=ROOT, env=env, capture_output=True, text=True)
+  return p, [line.split(SEP)[:-1] for line in log.read_text().splitlines()]
+
+
+def _lines(tmp_path, script: str, *args: str) -> list[list[str]]:
+  """The `python` command lines `bash launch/SCRIPT ARGS` runs, each as its argv after `python`."""
+  p, lines = _run(tmp_path, script, *args)
   assert p.returncode == 0, p.stderr
-  return [line.split(SEP)[:-1] for line in log.read_text().splitlines()]
+  return lines
 
 
 def _campaign_configs(monkeypatch, argv: list[str]) -> dict:
@@ -57,8 +67,20 @@ def parsed(monkeypatch, tmp_path):
 
 
 @pytest.mark.parametrize("part", ["a", "b", "c", "d", "square"])
-def test_every_part_of_why_own_successes_starts_commands_that_load(parsed, monkeypatch, part):
+def test_why_own_successes_refuses_the_cpu_preset_that_adopted_its_findings(monkeypatch, tmp_path, part):
+  """Its committed arms were measured before `cpu` adopted beta 1e-5 and aligned windows: under it the
+  script starts nothing and names the commit to run it at."""
   monkeypatch.setenv("BETA", "1e-05")
+  p, lines = _run(tmp_path, "why_own_successes.sh", "1", "/tmp/runs-why", part)
+  assert p.returncode == 2 and "at commit f21cbfe" in p.stderr and lines == []
+
+
+@pytest.mark.parametrize("part", ["a", "b", "c", "d", "square"])
+def test_every_part_of_why_own_successes_starts_commands_that_load(parsed, monkeypatch, part):
+  """(On the smoke preset, whose arms have the paper's KL weight and unaligned windows, as `cpu` had.)"""
+  monkeypatch.setenv("BETA", "1e-05")
+  monkeypatch.setenv("CONFIG", "configs/lift.py:smoke")
+  monkeypatch.setenv("SQUARE_CONFIG", "configs/square.py:smoke")
   lines = parsed("why_own_successes.sh", "1", "/tmp/runs-why", part)
   assert lines and all(argv[:2] == ["-m", "soe_jax"] and argv[2] in dispatcher.COMMANDS for argv, _ in lines)
   configs = [c for _, found in lines if found for c in found.values()]
