@@ -20,8 +20,9 @@
 #   windows and soe with both, to results/why-own-successes-eval44444/ (work directory WORKDIR-eval44444).
 # PART all: a and b, one after the other (too long for one session on this CPU).
 # Every part measures its arms as the `cpu` preset defined them before it adopted what they found (the
-# KL weight 1e-5 and aligned windows, commit f21cbfe): with a config whose soe arm has either, its `soe`
-# would be another arm than the committed results' `soe`, so the script refuses and names that commit.
+# KL weight 1e-5 and aligned windows; f21cbfe is the last commit before): with a config whose soe arm
+# has either, its `soe` would be another arm than the committed results' `soe`, so the script refuses
+# and names that commit.
 # Work directories outside the work tree (WORKDIR, default /work/runs-why; part b uses WORKDIR-beta);
 # re-running resumes. CONFIG (default configs/lift.py:cpu) and RESULTS (default results) may be set in the
 # environment, e.g. CONFIG=configs/lift.py:smoke RESULTS=/tmp/why for a quick check of the whole path.
