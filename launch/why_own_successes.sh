@@ -83,6 +83,6 @@ if [[ $part == d ]]; then
     --methods="$beta_arms" --workdir="$runs-eval44444" --results="$out/why-own-successes-eval44444" --progress=false
 fi
 if [[ $part == square ]]; then
-  python -m soe_jax campaign --config="${SQUARE_CONFIG:-configs/square.py:cpu}" --config.seed="$seed" \
+  python -m soe_jax campaign --config="$spec" --config.seed="$seed" \
     --methods="$beta_arms" --workdir="$runs-square" --results="$out/why-own-successes-square" --progress=false
 fi
