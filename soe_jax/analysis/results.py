@@ -37,7 +37,7 @@ def table(study: str, pairs: list[str] = ()) -> str:
   if not paths:
     if runs := aggregate.find_runs(study):
       rows = aggregate.rows(runs)
-      md = campaign_table(rows) + "\n" + campaign_claims(rows)
+      md = campaign_table(rows) + ("\n" + claimed if (claimed := campaign_claims(rows)) else "")
       return md + ("\n" + over_rounds.table(rows) if over_rounds.multi_round(rows) else "")
     raise FileNotFoundError(f"no result records (*.json) or exported runs in {study!r}")
   return records.table([(os.path.basename(p)[:-5], atomic.read_json(p)) for p in paths], study)
@@ -80,13 +80,14 @@ def campaign_table(rows: list[dict]) -> str:
 
 
 def campaign_claims(rows: list[dict]) -> str:
-  """Per task, the paper's comparative claims that the runs can test (`claims`), one line each."""
+  """Per task, the paper's comparative claims that the runs can test (`claims`), one line each ("" if
+  none: a control alone tests none)."""
   lines = []
   for task in sorted({r["task"] for r in rows}):
     lines += [f"- {task}: {c}" for c in claims.claims(rows, task) if ": not measured" not in c]
     if (c := over_rounds.claim(rows, task)) is not None:
       lines.append(f"- {task}: {c}")
-  return "\n".join(lines) + "\n"
+  return "".join(line + "\n" for line in lines)
 
 
 # A generated table in RESULTS.md or BENCHMARKS.md: between these lines, naming its results folder (and

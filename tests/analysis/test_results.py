@@ -154,6 +154,14 @@ def test_the_docs_tables_are_what_their_committed_results_give(monkeypatch):
     assert results.regenerate(text) == text, f"{path} is stale: run python -m soe_jax results --docs"
 
 
+def test_a_campaign_of_controls_alone_gets_its_table_and_no_empty_claims(monkeypatch):
+  """A campaign that ran only a control (the demonstration-count calibration) tests no claim of the
+  paper: its table ends at its last row, without the blank line of an empty claims list."""
+  monkeypatch.chdir(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+  md = results.table("results/protocol-count/sime-n5")
+  assert md.count("| lift | control-protocol_sime |") == 1 and md.endswith(" |\n")
+
+
 def test_the_results_command_prints_a_table_or_refuses_a_folder(tmp_path):
   """`python -m soe_jax results` prints a folder's table, and refuses a folder without records."""
   (tmp_path / "study").mkdir()
