@@ -9,6 +9,8 @@ import pytest
 
 from soe_jax.analysis import results
 
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
 
 def _record(success, commit):
   n = len(success)
@@ -147,7 +149,7 @@ def test_generated_tables_are_rewritten_between_their_markers(tmp_path, monkeypa
 
 def test_the_docs_tables_are_what_their_committed_results_give(monkeypatch):
   """Every generated table in RESULTS.md and BENCHMARKS.md is current (`python -m soe_jax results --docs`)."""
-  monkeypatch.chdir(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+  monkeypatch.chdir(ROOT)
   for path in results.DOCS:
     text = open(path).read()
     assert "<!-- table: " in text
@@ -157,7 +159,7 @@ def test_the_docs_tables_are_what_their_committed_results_give(monkeypatch):
 def test_a_campaign_of_controls_alone_gets_its_table_and_no_empty_claims(monkeypatch):
   """A campaign that ran only a control (the demonstration-count calibration) tests no claim of the
   paper: its table ends at its last row, without the blank line of an empty claims list."""
-  monkeypatch.chdir(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+  monkeypatch.chdir(ROOT)
   md = results.table("results/protocol-count/sime-n5")
   assert md.count("| lift | control-protocol_sime |") == 1 and md.endswith(" |\n")
 
