@@ -7,6 +7,9 @@
 #   calibration and the control's reproducibility check.
 # PART varied-count-N: round 0 and its control on N varied demonstrations under the present protocol,
 #   to results/protocol-count/varied-nN/: the varied data's count calibration.
+# PART picked-count-TASK-N (TASK lift, can or square): round 0 and its control under what docs/protocol.md
+#   picked before its count (SIME's protocol on varied demonstrations, RESULTS.md "Applying the rule")
+#   with N demonstrations, to results/protocol-count/picked-TASK-nN/: that count's calibration.
 # PART sime-N: dp, sime, soe and the control under SIME's protocol with N demonstrations, one
 #   invocation, to results/protocol-sime/nN/.
 # PART style-N: dp, sime, soe and the control on scripted and on varied demonstrations (N of each,
@@ -26,7 +29,7 @@
 # configs/TASK.py:PRESET, PRESET default cpu) and RESULTS (default results) may be set in the
 # environment, e.g. CONFIG=configs/lift.py:smoke PRESET=smoke RESULTS=/tmp/protocol for a quick check.
 set -euo pipefail
-part=${1:?sime-count-N, varied-count-N, sime-N, style-N, main-TASK[-1|-2] or rounds-lift}
+part=${1:?sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2] or rounds-lift}
 seed=${2:?the training seed}
 runs=${3:-/work/runs-protocol}
 config=${CONFIG:-configs/lift.py:cpu}
@@ -42,6 +45,13 @@ if [[ $part =~ ^main-(lift|can|square)(-([12]))?$ ]]; then
     --results="$out/protocol-main/${part#main-}" --progress=false
   exit
 fi
+if [[ $part =~ ^picked-count-(lift|can|square)-([0-9]+)$ ]]; then
+  task=${BASH_REMATCH[1]} count=${BASH_REMATCH[2]}
+  python -m soe_jax campaign --config="configs/$task.py:${PRESET:-cpu}" --config.seed="$seed" \
+    --config.data.num_demos="$count" --methods=control+protocol=sime+style=varied \
+    --workdir="$runs/picked-count-$task-$count" --results="$out/protocol-count/picked-$task-n$count" --progress=false
+  exit
+fi
 if [[ $part == rounds-lift ]]; then
   python -m soe_jax campaign --config="configs/lift.py:${PRESET:-cpu}" --config.seed="$seed" \
     --config.eval.seed=$eval_seed --config.rounds.num_rounds=3 --methods=control,dp,sime,soe \
@@ -50,7 +60,8 @@ if [[ $part == rounds-lift ]]; then
 fi
 case ${part%-*} in
   sime-count|varied-count|sime|style) ;;
-  *) echo "$part: unknown part (sime-count-N, varied-count-N, sime-N, style-N, main-TASK[-1|-2] or rounds-lift)" >&2
+  *) echo "$part: unknown part (sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2]" \
+       "or rounds-lift)" >&2
      exit 2 ;;
 esac
 count=${part##*-}

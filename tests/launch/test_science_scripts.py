@@ -126,6 +126,16 @@ def test_every_part_of_the_protocol_script_starts_commands_that_load(parsed, par
       assert configfile.load(spec).data.demo_style in styles
 
 
+@pytest.mark.parametrize("task, count", [("lift", 6), ("square", 20)])
+def test_the_picked_count_calibration_runs_sime_protocol_on_varied_demonstrations(parsed, task, count):
+  ((argv, configs),) = parsed("protocol.sh", f"picked-count-{task}-{count}", "1", "/tmp/runs-protocol")
+  (arm,) = configs.values()
+  assert arm.method == "control-style_varied-protocol_sime" and arm.env.task == task and arm.seed == 1
+  assert arm.data.num_demos == count and arm.data.demo_style == "varied"
+  assert arm.rounds.refit == "scratch" and arm.rounds.select == "sime" and arm.policy.n_action_steps == 20
+  assert any(a.endswith(f"protocol-count/picked-{task}-n{count}") for a in argv)
+
+
 @pytest.mark.parametrize(
   "part, task, methods",
   [
