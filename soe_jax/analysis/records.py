@@ -271,16 +271,18 @@ TABLES.register("serve", serve_table)
 def demo_styles_table(records: Records) -> str:
   """`experts --measure` records: how varied each demonstrator's episodes are (`experts.variety`)."""
   rows = []
-  for name, r in records:
-    v = r["variety"]
-    met = ", ".join(k for k, ok in v["thresholds_met"].items() if ok) or "none"
-    rows.append([name, r["task"], r["style"], f"{pct(v['success_rate'])} of {r['num_episodes']}",
-                 f"{pct(v['arc_left'])} / {pct(v['arc_right'])}",
-                 f"{pct(v['carry_left'])} / {pct(v['carry_right'])}" if "carry_left" in v else "-",
-                 f"{pct(v['face_0'])} / {pct(v['face_1'])}",
-                 f"{pct(v['turn_short'])} / {pct(v['turn_long'])}" if "turn_short" in v else "-",
-                 f"{v['path_cv']:.3f}", pct(v["paused"]), f"{v['length_mean']:.1f} ± {v['length_std']:.1f}", met,
-                 r["commit"]])  # fmt: skip
+  for record_name, r in records:
+    arms = r["variety"].get("arms", {"": r["variety"]})  # a two-arm task: a row per arm
+    for arm, v in arms.items():
+      name = f"{record_name} {arm}".strip()
+      met = ", ".join(k for k, ok in v["thresholds_met"].items() if ok) or "none"
+      rows.append([name, r["task"], r["style"], f"{pct(v['success_rate'])} of {r['num_episodes']}",
+                   f"{pct(v['arc_left'])} / {pct(v['arc_right'])}",
+                   f"{pct(v['carry_left'])} / {pct(v['carry_right'])}" if "carry_left" in v else "-",
+                   f"{pct(v['face_0'])} / {pct(v['face_1'])}" if "face_0" in v else "-",
+                   f"{pct(v['turn_short'])} / {pct(v['turn_long'])}" if "turn_short" in v else "-",
+                   f"{v['path_cv']:.3f}", pct(v["paused"]), f"{v['length_mean']:.1f} ± {v['length_std']:.1f}", met,
+                   r["commit"]])  # fmt: skip
   header = ["record", "task", "style", "success", "approach arced left / right", "carry arced left / right",
             "faces 0 / 1", "nut turned short / long", "path length CV", "paused",
             "length (steps)", "thresholds met", "commit"]  # fmt: skip

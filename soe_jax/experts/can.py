@@ -88,7 +88,7 @@ def resume(obs):
 
 def sample_varied_params(key):
   k = jax.random.split(key, 6)
-  p = dict(sample_params(k[0]), **lift_expert.sample_styles(k[1]), **lift_expert.carry_styles(k[2]))
+  p = dict(sample_params(k[0]), **lift_expert.sample_styles(k[1]), **lift_expert.path_styles(k[2]))
   return dict(p, yaw=uniform(k[3], -jnp.pi / 2, jnp.pi / 2))
 
 

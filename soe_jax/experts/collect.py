@@ -126,7 +126,7 @@ def record(task: str, num_episodes: int, seed: int = 0, out: str | None = None, 
   """Demonstrations of `task` in `style` from `num_episodes` start states of `seed`, the successful ones
   written to `out` in robomimic's HDF5 layout when given -> {task, style, num_episodes, success_rate,
   mean_length (of the successful ones), backend, seconds[, out, num_saved][, variety: with `measure`,
-  `experts.variety.measure`]}."""
+  `experts.variety.measure_task`]}."""
   env = make_env(task, backend=backend)
   expert = expert_registry.make_expert(task, style)
   start = time.time()
@@ -144,7 +144,7 @@ def record(task: str, num_episodes: int, seed: int = 0, out: str | None = None, 
   if measure:
     from soe_jax.experts import variety
 
-    result["variety"] = variety.measure(batch, variety.EQUIVALENTS.get(task, "face"))
+    result["variety"] = variety.measure_task(batch, task)
   if out:
     found = split_episodes(batch)
     meta = dict(env_name=task, env_kwargs=env.config.to_dict(), source="scripted demonstrator", seed=seed)

@@ -59,16 +59,16 @@ def sample_styles(key) -> dict:
   )
 
 
-def carry_styles(key) -> dict:
-  """`sample_styles`' arc and hover for a carry to the place (Can's, Square's): `carry_side`, `carry_arc`,
-  `carry_hover`."""
+def path_styles(key, path: str = "carry") -> dict:
+  """`sample_styles`' arc and hover for another path of the episode, each drawn anew and named after it:
+  `carry_side`, `carry_arc`, `carry_hover` for the carry to the place (Can's, Square's)."""
   styles = sample_styles(key)
-  return {f"carry_{k}": styles[k] for k in ("side", "arc", "hover")}
+  return {f"{path}_{k}": styles[k] for k in ("side", "arc", "hover")}
 
 
 def styled_pick_and_place(settle, above, descend, close, lift, carry, *place) -> tuple:
   """A varied pick-and-place demonstrator's plans (Can's, Square's) from its scripted ones: the approach
-  and the carry arced and hovering by `sample_styles`' and `carry_styles`' parameters, the descent at
+  and the carry arced and hovering by `sample_styles`' and `path_styles`' parameters, the descent at
   its own pace; the other phases as they are."""
   return (
     settle,

@@ -127,7 +127,7 @@ def resume(obs):
 def sample_varied_params(key):
   k = jax.random.split(key, 4)
   second = jax.random.randint(k[3], (), 0, 2).astype(jnp.float32)  # which square orientation the nut turns to
-  return dict(sample_params(k[0]), **lift_expert.sample_styles(k[1]), **lift_expert.carry_styles(k[2]), second=second)
+  return dict(sample_params(k[0]), **lift_expert.sample_styles(k[1]), **lift_expert.path_styles(k[2]), second=second)
 
 
 EXPERT = script.ScriptedExpert(

@@ -10,6 +10,13 @@ let go and clear, and lowers the hammer into the target bin.
 Each arm's phases read only the observation, so either arm resumes from any scene (`resume_*`), and
 the waits are the observation's too (robot1 descends once the hammer is held out; robot0 opens once
 robot1's fingers are closed on the handle; robot1 leaves once robot0's are open and above it).
+
+`EXPERT` is the scripted demonstrator; `VARIED` draws human-like styles per episode and arm (Lift's,
+`lift.sample_styles`): robot0's approaches to the lid and to the hammer and its carry of the lid, and
+robot1's approach to the trash, its carry to the trash bin and its carry of the hammer to the target
+bin, each straight or arced to either side with an occasional hover at its end; the descents at their
+own pace; robot1's grasp on either pair of the trash cube's faces. The handover itself is the scripted
+one (the two hands meet there).
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ import jax.numpy as jnp
 
 from soe_jax.envs import rotations
 from soe_jax.envs import transport as task
+from soe_jax.experts import lift as lift_expert
 from soe_jax.experts import script
 from soe_jax.experts.script import always, target, uniform
 
@@ -362,3 +370,48 @@ EXPERT = script.BimanualExpert(
     script.ScriptedExpert(plans=PLANS1, sample_params=params1, resume=resume1, ready=READY1, robot=1),
   )
 )
+
+
+# -- the varied demonstrator ------------------------------------------------------------------------
+def varied0(key):
+  k = jax.random.split(key, 4)
+  return dict(params0(k[0]), **lift_expert.sample_styles(k[1]), **lift_expert.path_styles(k[2]),
+              **lift_expert.path_styles(k[3], "hammer"))  # fmt: skip
+
+
+def varied1(key):
+  k = jax.random.split(key, 5)
+  face = jax.random.randint(k[4], (), 0, 2).astype(jnp.float32)  # which pair of the trash cube's faces
+  return dict(params1(k[0]), **lift_expert.sample_styles(k[1]), **lift_expert.path_styles(k[2]),
+              **lift_expert.path_styles(k[3], "hammer"), face=face)  # fmt: skip
+
+
+def above_trash_varied(obs, p, cmd_pos, cmd_yaw):
+  """`above_trash` closing across either pair of the cube's faces (modulo a half turn, the fingers being
+  alike, nearest the hand's yaw)."""
+  t = above_trash(obs, p, cmd_pos, cmd_yaw)
+  yaw = script.quat_yaw_xyzw(obs["object"][10:14]) + p["face"] * jnp.pi / 2
+  return t._replace(yaw=script.nearest_equivalent(yaw, cmd_yaw, jnp.pi))
+
+
+STYLED0 = {
+  1: script.arced(above_lid, "side", "arc", "hover"),
+  2: script.paced(descend_lid, "descend_speed"),
+  5: script.arced(lid_aside, "carry_side", "carry_arc", "carry_hover"),
+  9: script.arced(above_hammer, "hammer_side", "hammer_arc", "hammer_hover"),
+  10: script.paced(descend_hammer, "descend_speed"),
+}
+STYLED1 = {
+  1: script.arced(above_trash_varied, "side", "arc", "hover"),
+  2: script.paced(descend_trash, "descend_speed"),
+  5: script.arced(over_trash_bin, "carry_side", "carry_arc", "carry_hover"),
+  13: script.arced(over_target_bin, "hammer_side", "hammer_arc", "hammer_hover"),
+}
+VARIED = script.BimanualExpert(
+  arms=(
+    script.ScriptedExpert(plans=tuple(STYLED0.get(i, f) for i, f in enumerate(PLANS0)), sample_params=varied0,
+                          resume=resume0, ready=READY0, robot=0),
+    script.ScriptedExpert(plans=tuple(STYLED1.get(i, f) for i, f in enumerate(PLANS1)), sample_params=varied1,
+                          resume=resume1, ready=READY1, robot=1),
+  )
+)  # fmt: skip

@@ -3,8 +3,8 @@ approach (straight, or arced to the left or the right of the straight line to th
 the object's symmetric equivalents the demonstrator chose (the pair of faces the fingers closed on; for
 Square, whose handle is the nut's one grasp, whether the nut was turned the short way to square on its
 way to the peg or to another square orientation), the spread of the hand's path length, how many hover or pause, and
-the episodes' lengths. The same numbers for scripted and varied demonstrators, side by side,
-say whether the varied ones meet their thresholds (`THRESHOLDS`).
+the episodes' lengths; Transport's two arms each on their own (`ARMS`). The same numbers for scripted
+and varied demonstrators, side by side, say whether the varied ones meet their thresholds (`THRESHOLDS`).
 """
 
 from __future__ import annotations
@@ -24,6 +24,16 @@ THRESHOLDS = dict(arc_each_side=0.25, equivalent_each=0.20, success=0.95)
 # the short way to square, or more, to another square orientation; the scripted Square demonstrator
 # turns it the long way too where the short way would leave the handle pointing away from the robot).
 EQUIVALENTS = {"square": "turn"}
+# Two-arm tasks: each arm is measured on its own, from its 10 actions (from `first`) against the object of
+# its first grasp (`pose`: its slice of `object`, position and xyzw quaternion), with its symmetric
+# equivalents (None: the object has one grasp). Transport: robot0 takes the lid by its handle, a bar;
+# robot1 the trash cube.
+ARMS = {
+  "transport": (
+    dict(arm="robot0", first=0, pose=slice(14, 21), equivalents=None),
+    dict(arm="robot1", first=10, pose=slice(7, 14), equivalents="face"),
+  ),
+}
 
 
 def _yaw_of_rot6d(rot6d: np.ndarray) -> np.ndarray:
@@ -80,12 +90,12 @@ def episode(actions: np.ndarray, object_pose: np.ndarray, face_period: float = n
   )
 
 
-def measure(batch: dict, equivalents: str = "face", object_key: str = "object") -> dict:
+def measure(batch: dict, equivalents: str | None = "face", object_key: str = "object") -> dict:
   """A batch of demonstrations (`collect.run_demos`) -> the share of each approach side, each face,
   the same for the carry to the place (tasks that release the object), with `equivalents="turn"` the
-  share of each turn, the path length's coefficient of variation, the share that paused, length mean
-  and std (over the successful episodes), the success rate, and which `THRESHOLDS` hold (the
-  equivalents' on the faces or the turns)."""
+  share of each turn (with None neither: the object has one grasp), the path length's coefficient of
+  variation, the share that paused, length mean and std (over the successful episodes), the success
+  rate, and which `THRESHOLDS` hold (the equivalents' on the faces or the turns)."""
   ok = np.flatnonzero(batch["success"])
   eps = [episode(batch["actions"][i, : batch["length"][i]], batch["obs"][object_key][i, : batch["length"][i]])
          for i in ok]  # fmt: skip
@@ -100,20 +110,34 @@ def measure(batch: dict, equivalents: str = "face", object_key: str = "object") 
     arc_right=share("side", -1),
     straight=share("side", 0),
     **({} if eps[0]["carry"] is None else dict(carry_left=share("carry", 1), carry_right=share("carry", -1))),
-    face_0=share("face", 0),
-    face_1=share("face", 1),
+    **({} if equivalents is None else dict(face_0=share("face", 0), face_1=share("face", 1))),
     **(dict(turn_short=share("turn", 0), turn_long=share("turn", 1)) if equivalents == "turn" else {}),
     path_cv=float(paths.std() / paths.mean()),
     paused=float(np.mean([e["paused"] for e in eps])),
     length_mean=float(lengths.mean()),
     length_std=float(lengths.std()),
   )
-  shares = ("face_0", "face_1") if equivalents == "face" else ("turn_short", "turn_long")
-  out["thresholds_met"] = dict(
-    arc_each_side=min(out["arc_left"], out["arc_right"]) >= THRESHOLDS["arc_each_side"],
-    **{f"{equivalents}_each": min(out[k] for k in shares) >= THRESHOLDS["equivalent_each"]},
-    success=out["success_rate"] >= THRESHOLDS["success"],
+  met = out["thresholds_met"] = dict(
+    arc_each_side=min(out["arc_left"], out["arc_right"]) >= THRESHOLDS["arc_each_side"]
   )
+  if equivalents is not None:
+    shares = ("face_0", "face_1") if equivalents == "face" else ("turn_short", "turn_long")
+    met[f"{equivalents}_each"] = min(out[k] for k in shares) >= THRESHOLDS["equivalent_each"]
+  met["success"] = out["success_rate"] >= THRESHOLDS["success"]
   if "carry_left" in out:
-    out["thresholds_met"]["carry_each_side"] = min(out["carry_left"], out["carry_right"]) >= THRESHOLDS["arc_each_side"]
+    met["carry_each_side"] = min(out["carry_left"], out["carry_right"]) >= THRESHOLDS["arc_each_side"]
   return out
+
+
+def measure_task(batch: dict, task: str) -> dict:
+  """`measure` with `task`'s equivalents; a two-arm task's (`ARMS`) per arm, under `arms`, beside the
+  episodes' success rate and every arm's thresholds, each named after its arm."""
+  if task not in ARMS:
+    return measure(batch, EQUIVALENTS.get(task, "face"))
+  arms = {}
+  for a in ARMS[task]:
+    one = dict(batch, actions=batch["actions"][..., a["first"] : a["first"] + 10],
+               obs=dict(object=batch["obs"]["object"][..., a["pose"]]))  # fmt: skip
+    arms[a["arm"]] = measure(one, a["equivalents"])
+  met = {f"{arm}_{k}": ok for arm, m in arms.items() for k, ok in m.get("thresholds_met", {}).items()}
+  return dict(arms=arms, success_rate=float(np.mean(batch["success"])), thresholds_met=met)

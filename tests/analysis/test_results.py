@@ -117,6 +117,21 @@ def test_demonstration_styles_get_a_row_each_with_the_thresholds_they_meet(tmp_p
   assert rows[3].split(" | ")[-2] == "arc_each_side, turn_each, success"
 
 
+def test_a_two_arm_demonstrator_gets_a_row_per_arm(tmp_path):
+  """Transport's arms are measured each on its own: a row each, named after the record and the arm, a
+  dash for the faces of an arm whose object has one grasp."""
+  arm = dict(success_rate=1.0, arc_left=0.3, arc_right=0.3, straight=0.4, carry_left=0.3, carry_right=0.2,
+             path_cv=0.1, paused=1.0, length_mean=400.0, length_std=50.0)  # fmt: skip
+  arms = dict(robot0=dict(arm, thresholds_met=dict(arc_each_side=True, success=True, carry_each_side=False)),
+              robot1=dict(arm, face_0=0.4, face_1=0.6, thresholds_met=dict(arc_each_side=True, face_each=True)))  # fmt: skip
+  variety = dict(arms=arms, success_rate=1.0, thresholds_met={})
+  record = dict(kind="demo_styles", task="transport", style="varied", num_episodes=200, variety=variety, commit="c")
+  (tmp_path / "transport_varied.json").write_text(json.dumps(record))
+  rows = [r.split(" | ") for r in results.table(str(tmp_path)).splitlines()[2:]]
+  assert [r[0] for r in rows] == ["| transport_varied robot0", "| transport_varied robot1"]
+  assert [r[6] for r in rows] == ["-", "40.0% / 60.0%"] and rows[0][-2] == "arc_each_side, success"
+
+
 def test_a_record_without_a_kind_is_an_error_naming_its_file(tmp_path):
   (tmp_path / "01_a.json").write_text(json.dumps(_record([1, 0], "aaa")))
   untyped = _record([0, 1], "bbb")

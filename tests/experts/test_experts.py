@@ -77,6 +77,35 @@ def test_the_measure_reads_faces_and_turns_from_the_commands():
   assert "turn_short" not in faces and not faces["thresholds_met"]["face_each"]  # every grasp on one face pair
 
 
+def test_a_two_arm_task_is_measured_per_arm_against_its_first_grasp():
+  """Transport: robot0's 10 actions against the lid's handle (one grasp: no faces), robot1's against the
+  trash cube (its faces); every arm's thresholds named after it."""
+  n = 4
+  left, right = _carried(0.0, 0.0), _carried(0.0, np.pi / 2)  # robot0 across the lid's yaw; robot1 a quarter turn
+  obj = np.zeros((n, 40, 41))
+  obj[..., 14:21], obj[..., 7:14] = left[1], right[1]
+  batch = dict(success=np.ones(n, bool), length=np.full(n, 40), obs=dict(object=obj),
+               actions=np.broadcast_to(np.concatenate([left[0], right[0]], axis=1), (n, 40, 20)))  # fmt: skip
+  m = variety.measure_task(batch, "transport")
+  assert "face_0" not in m["arms"]["robot0"] and m["arms"]["robot1"]["face_1"] == 1.0
+  assert m["thresholds_met"] == dict(robot0_arc_each_side=False, robot0_success=True, robot0_carry_each_side=False,
+                                     robot1_arc_each_side=False, robot1_face_each=False, robot1_success=True,
+                                     robot1_carry_each_side=False)  # fmt: skip
+
+
+@pytest.mark.slow
+def test_the_varied_transport_demonstrator_succeeds_and_arcs_both_arms(jitted_env):
+  """`style=varied` on Transport: on 16 start states at least 15 succeed, each arm's approaches arc to
+  both sides, and robot1 closes on both pairs of the trash cube's faces."""
+  env, _, _ = jitted_env("transport")
+  batch = collect.run_demos(env, make_expert("transport", "varied"), jax.random.split(jax.random.PRNGKey(3), 16),
+                            progress=False)  # fmt: skip
+  m = variety.measure_task(batch, "transport")
+  assert m["success_rate"] >= 15 / 16
+  assert min(min(a["arc_left"], a["arc_right"]) for a in m["arms"].values()) > 0.05
+  assert min(m["arms"]["robot1"]["face_0"], m["arms"]["robot1"]["face_1"]) > 0.1
+
+
 def test_an_unknown_demonstration_style_lists_the_known_ones():
   with pytest.raises(ValueError, match="known styles: scripted, varied"):
     make_expert("lift", "human")
