@@ -7,7 +7,8 @@
 #   calibration and the control's reproducibility check.
 # PART varied-count-N: round 0 and its control on N varied demonstrations under the present protocol,
 #   to results/protocol-count/varied-nN/: the varied data's count calibration.
-# PART picked-count-TASK-N (TASK lift, can or square): round 0 and its control under what docs/protocol.md
+# PART picked-count-TASK-N (TASK lift, can or square): round 0 alone (no round, no control: the main
+#   campaign's control is the reproducibility check at the count picked) under what docs/protocol.md
 #   picked before its count (SIME's protocol on varied demonstrations, RESULTS.md "Applying the rule")
 #   with N demonstrations, to results/protocol-count/picked-TASK-nN/: that count's calibration.
 # PART sime-N: dp, sime, soe and the control under SIME's protocol with N demonstrations, one
@@ -48,7 +49,7 @@ fi
 if [[ $part =~ ^picked-count-(lift|can|square)-([0-9]+)$ ]]; then
   task=${BASH_REMATCH[1]} count=${BASH_REMATCH[2]}
   python -m soe_jax campaign --config="configs/$task.py:${PRESET:-cpu}" --config.seed="$seed" \
-    --config.data.num_demos="$count" --methods=control+protocol=sime+style=varied \
+    --config.data.num_demos="$count" --config.rounds.num_rounds=0 --methods=control+protocol=sime+style=varied \
     --workdir="$runs/picked-count-$task-$count" --results="$out/protocol-count/picked-$task-n$count" --progress=false
   exit
 fi

@@ -177,7 +177,7 @@ def rows(workdirs: list[str]) -> list[dict]:
         sr_before=mean_std([r.get("sr_before") for r in group]),
         sr_after=mean_std([r.get("sr_after") for r in group]),
         sr_after_episodes=n,
-        sr_after_wilson=f"[{lo:.3f}, {hi:.3f}]",
+        sr_after_wilson=f"[{lo:.3f}, {hi:.3f}]" if n else None,
         improvement_abs=mean_std([r.get("improvement_abs") for r in group]),
         improvement_rel=mean_std([r.get("improvement_rel") for r in group]),
         vs_round0=paired_cell(vs_round0),

@@ -75,10 +75,11 @@ def _summarize(workdir: str) -> tuple[dict, dict]:
       kept=first["num_episodes"],  # the episodes the round added to the data
       kept_length=first.get("kept_length_mean"),  # (recorded since the length cap exists)
     )
+  if before is not None:
+    out["sr_before"] = before["success_rate"]
   if before is not None and after is not None and rounds[-1] > 0:  # (a round-0-only run improves on nothing)
     imp = metrics.relative_improvement(before["success_rate"], after["success_rate"])
     out.update(
-      sr_before=before["success_rate"],
       sr_after=after["success_rate"],
       sr_episodes=after["num_rollouts"],
       sr_after_wilson=(after["wilson_low"], after["wilson_high"]),

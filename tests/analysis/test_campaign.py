@@ -53,26 +53,27 @@ def test_expert_data_on_square_is_the_demonstrators_plan(tmp_path):
     np.testing.assert_allclose(observations.policy_obs(ep["obs"], xp=np)[0], start, atol=1e-6)
 
 
-def _fake_run(path, method, seed, before, after, explored=(), jerk=3.0):
-  """A finished one-round run directory with hand-made per-state outcomes (`explored`: per start
-  state, its 2 tries)."""
+def _fake_run(path, method, seed, before, after, explored=(), jerk=3.0, rounds=1):
+  """A finished one-round run directory (`rounds=0`: round 0 alone, `after` unused) with hand-made
+  per-state outcomes (`explored`: per start state, its 2 tries)."""
   os.makedirs(path)
   config = lift_config.get_config(f"smoke,{method}").to_dict()
   config.update(seed=seed)
-  config["rounds"]["num_rounds"] = 1
+  config["rounds"]["num_rounds"] = rounds
   json.dump(config, open(os.path.join(path, "config.json"), "w"))
   lines = []
-  for r, outcomes in ((0, before), (1, after)):
+  for r, outcomes in ((0, before), (1, after))[: rounds + 1]:
     rate = sum(outcomes) / len(outcomes)
     lines.append(dict(round=r, phase="evaluate", success_rate=rate, num_rollouts=len(outcomes), wilson_low=0.0,
                       wilson_high=1.0, time_total_s=1.0))  # fmt: skip
-  if method != "control":
+  if method != "control" and rounds:
     lines.insert(1, dict(round=1, phase="explore", pass_at_k=0.5, k=2, jerk=jerk, rollouts=3, rollouts_mean=1.5,
                          num_episodes=2, kept_length_mean=40.0))  # fmt: skip
   with open(os.path.join(path, "metrics.jsonl"), "w") as f:
     f.writelines(json.dumps(m) + "\n" for m in lines)
   explore = {"1": [t for state in explored for t in state]} if explored else {}
-  json.dump(dict(evaluate={"0": before, "1": after}, explore=explore), open(os.path.join(path, "outcomes.json"), "w"))
+  evaluate = {"0": before, "1": after} if rounds else {"0": before}
+  json.dump(dict(evaluate=evaluate, explore=explore), open(os.path.join(path, "outcomes.json"), "w"))
 
 
 def test_aggregate_pairs_each_method_with_round0_and_its_control(tmp_path):
@@ -108,6 +109,20 @@ def test_aggregate_pairs_each_method_with_round0_and_its_control(tmp_path):
   # A method without a control of its seed and settings has no such comparison.
   _fake_run(tmp_path / "s2" / "dp", "dp", 2, base[0], base[0])
   assert {r["method"]: r for r in aggregate.rows(aggregate.find_runs(str(tmp_path)))}["dp"]["vs_control"] == "-"
+
+
+def test_a_round_0_only_campaign_tables_round_0s_success_and_nothing_after(tmp_path):
+  """`--config.rounds.num_rounds=0` (a demonstration count's calibration): success before is round 0's,
+  over seeds; every column after it a dash, no interval of no episodes."""
+  _fake_run(tmp_path / "s0" / "control", "control", 0, [1, 0, 0, 1], None, rounds=0)
+  _fake_run(tmp_path / "s1" / "control", "control", 1, [1, 1, 1, 0], None, rounds=0)
+  (row,) = aggregate.rows(aggregate.find_runs(str(tmp_path)))
+  assert row["per_seed"]["sr_before"] == [0.5, 0.75] and row["sr_after_episodes"] == 0
+  md, _ = aggregate.aggregate(aggregate.find_runs(str(tmp_path)))
+  assert md.splitlines()[-1].split(" | ")[9:13] == ["0.625 ± 0.18", "-", "0", "-"]
+  assert (
+    results.table(str(tmp_path)).splitlines()[2].startswith("| lift | control | 2 | - | - | - | - | 62.5 ± 17.7% | - |")
+  )
 
 
 def test_seeds_logged_differently_are_one_arm(tmp_path):

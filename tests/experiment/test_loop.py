@@ -296,7 +296,8 @@ def test_the_toy_tests_import_no_mujoco(tmp_path):
 
 
 def test_a_round_0_run_reports_round_0_alone(toy_run):
-  """`rounds.num_rounds=0`: no improvement (+0.0%), no jerk of nothing (nan), no exploration figure."""
+  """`rounds.num_rounds=0`: round 0's success (a calibration's number) and no improvement (+0.0%), no jerk
+  of nothing (nan), no exploration figure."""
   from soe_jax.analysis import report
 
   root, _, _ = toy_run
@@ -306,6 +307,7 @@ def test_a_round_0_run_reports_round_0_alone(toy_run):
   loop.run(config, workdir, progress=False)  # (the fixture's round 0, shared)
   summary = report.write(workdir)
   assert summary["rounds"] == [0] and "improvement_rel" not in summary and "sr_after" not in summary
+  assert summary["sr_before"] == summary["success_per_round"][0]
   text = open(os.path.join(workdir, "report.md")).read()
   assert "+0.0" not in text and "nan" not in text and "exploration.png" not in text
   assert os.path.exists(os.path.join(workdir, "success.png"))

@@ -133,6 +133,7 @@ def test_the_picked_count_calibration_runs_sime_protocol_on_varied_demonstration
   assert arm.method == "control-style_varied-protocol_sime" and arm.env.task == task and arm.seed == 1
   assert arm.data.num_demos == count and arm.data.demo_style == "varied"
   assert arm.rounds.refit == "scratch" and arm.rounds.select == "sime" and arm.policy.n_action_steps == 20
+  assert arm.rounds.num_rounds == 0  # round 0 alone
   assert any(a.endswith(f"protocol-count/picked-{task}-n{count}") for a in argv)
 
 
