@@ -39,8 +39,10 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
   styles, every task's demonstrator has them);
 - `protocol=sime`, with any method, the control too: SIME's setup, which the paper's simulation
   experiments follow (`schema.PROTOCOLS`): one observation step, 20-step chunks executed whole,
-  `train_0.5` selection, every round re-trained from fresh parameters with round 0's recipe
-  (`method` gains `-protocol_sime`; its round 0 is its own);
+  `train_0.5` selection, every round re-trained from fresh parameters with round 0's recipe;
+  `protocol=continued`: the first campaigns' (2 / 16 / 8 horizons, first success, a continued re-fit);
+  where it changes what the presets before it set, `method` gains `-protocol_NAME` and its round 0 is
+  its own;
 - `head=NAME` (diffusion_unet, flow_unet, mlp);
 - `image`: the paper's simulation observations, the agent-view and in-hand cameras' 84 x 84 images
   beside the robot's own low-dim state, without the simulator's object vector (`env.obs_mode`,
@@ -272,8 +274,12 @@ def apply_presets(
     name = presets["protocol"]
     if name not in PROTOCOLS:
       raise ValueError(f"unknown protocol {name!r}; known protocols: {', '.join(PROTOCOLS)}")
+    changed = False
     for field, value in PROTOCOLS[name].items():
       *sections, key = field.split(".")
-      functools.reduce(getattr, sections, c)[key] = value
-    c.method = f"{c.method}-protocol_{name}"
+      section = functools.reduce(getattr, sections, c)
+      changed |= section[key] != value
+      section[key] = value
+    if changed:  # (as a variant: the arm is named by what its presets change)
+      c.method = f"{c.method}-protocol_{name}"
   return c

@@ -122,7 +122,9 @@ ANY_METHOD_VARIANTS = ("range", "frame", "style")
 # Experiment protocols (`protocol=NAME`, any method, the control too): name -> the fields it sets, over
 # every other preset's. `sime`: SIME's setup (specs/sime_baseline.md), which the paper's simulation
 # experiments follow: one observation step, a 20-step chunk executed whole, `train_0.5` selection, and
-# every round re-trained from freshly initialised parameters with round 0's recipe.
+# every round re-trained from freshly initialised parameters with round 0's recipe. `continued`: the
+# protocol this project's first campaigns ran (RESULTS.md): Diffusion Policy's 2 / 16 / 8 horizons, each
+# state's first success kept, and each round's re-fit continuing from the previous round's parameters.
 PROTOCOLS = {
   "sime": {
     "policy.n_obs_steps": 1,
@@ -130,5 +132,12 @@ PROTOCOLS = {
     "policy.n_action_steps": 20,
     "rounds.select": "sime",
     "rounds.refit": "scratch",
+  },
+  "continued": {
+    "policy.n_obs_steps": 2,
+    "policy.horizon": 16,
+    "policy.n_action_steps": 8,
+    "rounds.select": "first_success",
+    "rounds.refit": "continue",
   },
 }

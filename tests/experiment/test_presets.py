@@ -109,6 +109,19 @@ def test_cpu_preset_adopts_the_kl_weight_and_aligned_windows_and_its_variants_st
   assert lift_config.get_config("cpu,soe,beta=1e-05,aligned=true").method == "soe"  # changes nothing
 
 
+def test_a_protocol_names_the_arm_only_where_it_changes_the_presets_fields():
+  """`protocol=continued` is the first campaigns' protocol, the `cpu` preset's until the rule picks;
+  `protocol=sime` changes every one of its fields and names the arm and its own round 0."""
+  plain, continued = lift_config.get_config("cpu,soe"), lift_config.get_config("cpu,soe,protocol=continued")
+  assert continued.method == "soe" and continued.to_dict() == plain.to_dict()
+  sime = lift_config.get_config("cpu,soe,protocol=sime")
+  assert sime.method == "soe-protocol_sime" and rundir.round0_key(sime) != rundir.round0_key(plain)
+  fields = lambda c: (c.policy.n_obs_steps, c.policy.horizon, c.policy.n_action_steps, c.rounds.select, c.rounds.refit)
+  assert (fields(plain), fields(sime)) == ((2, 16, 8, "first_success", "continue"), (1, 20, 20, "sime", "scratch"))
+  with pytest.raises(ValueError, match="unknown protocol 'paper'; known protocols: sime, continued"):
+    lift_config.get_config("cpu,soe,protocol=paper")
+
+
 def test_a_misspelled_override_suggests_the_field():
   argv = [
     "--config.fit.stepz=3",
