@@ -14,8 +14,9 @@ robot1's fingers are closed on the handle; robot1 leaves once robot0's are open 
 `EXPERT` is the scripted demonstrator; `VARIED` draws human-like styles per episode and arm (Lift's,
 `lift.sample_styles`): robot0's approaches to the lid and to the hammer and its carry of the lid, and
 robot1's approach to the trash, its carry to the trash bin and its carry of the hammer to the target
-bin, each straight or arced to either side with an occasional hover at its end; the descents at their
-own pace; robot1's grasp on either pair of the trash cube's faces. The handover itself is the scripted
+bin, each straight or arced to either side with an occasional hover at its end; each arm's speed from
+Lift's wider range and its descents at their own pace; robot1's grasp on either pair of the trash
+cube's faces. The handover itself is the scripted
 one (the two hands meet there).
 """
 
