@@ -120,6 +120,21 @@ HEADER = [
 ]
 
 
+def _controls(runs: list[dict]) -> dict:
+  """{control key: the control run every run with that key pairs with}: a control arm (`control`, with
+  whatever variants: its own round 0 under `protocol=` or `style=`), the plain `control` where several
+  share a key (the action range's and frame's controls differ from it in arm fields only, so they pair
+  with it as arms do)."""
+  controls: dict[str, dict] = {}
+  for s in runs:
+    if s["method"].split("-")[0] != CONTROL:
+      continue
+    key = _control_key(s["task"], s["seed"], s["settings"])
+    if key not in controls or (s["method"] == CONTROL and controls[key]["method"] != CONTROL):
+      controls[key] = s
+  return controls
+
+
 def rows(workdirs: list[str]) -> list[dict]:
   """One row per task, method and variant (runs whose configs differ in more than the seed and
   placement get a row each, named by the fields that differ), numbers as mean ± std over seeds; of two
@@ -130,10 +145,8 @@ def rows(workdirs: list[str]) -> list[dict]:
     s["settings"], s["outcomes"] = _settings(w), _outcomes(w)
     s["last"] = str(s["rounds"][-1]) if s["rounds"] else None
     runs.append(s)
-  controls = {}
-  for s in runs:
-    if s["method"] == CONTROL:
-      controls.setdefault(_control_key(s["task"], s["seed"], s["settings"]), s)
+  controls = _controls(runs)
+  control_arms = {(c["task"], c["method"]) for c in controls.values()}
   by_method: dict[tuple, list[dict]] = {}
   for s in runs:
     by_method.setdefault((s["task"], s["method"]), []).append(s)
@@ -147,7 +160,8 @@ def rows(workdirs: list[str]) -> list[dict]:
         continue
       group.append(s)
   out = []
-  for (task, method, v), group in sorted(groups.items(), key=lambda g: (g[0][0], g[0][1] == CONTROL, g[0][1:])):
+  order = lambda g: (g[0][0], g[0][:2] in control_arms, g[0][1:])
+  for (task, method, v), group in sorted(groups.items(), key=order):
     after = [r for r in group if "sr_after" in r]
     n = sum(r["sr_episodes"] for r in after)
     successes = sum(int(round(r["sr_after"] * r["sr_episodes"])) for r in after)
@@ -155,7 +169,7 @@ def rows(workdirs: list[str]) -> list[dict]:
     evaluated = lambda r, rnd: r["outcomes"]["evaluate"].get(rnd) if rnd is not None else None
     vs_round0 = comparison([(evaluated(r, "0"), evaluated(r, r["last"])) for r in after if r["last"] != "0"])
     vs_control = None
-    if method != CONTROL:
+    if (task, method) not in control_arms:
       pairs = []
       for r in after:
         control = controls.get(_control_key(task, r["seed"], r["settings"]))

@@ -20,10 +20,11 @@ def is_setting(key: str) -> bool:
 
 
 # What a method's run and its control may differ in: the arm itself (how it explores, what it keeps).
-# (The action range changes round 0 too; its arms pair with the control of the default range.)
+# (The action range and frame change round 0 too; their arms pair with the control of the default range
+# and frame. The demonstrations' style and the protocol are not here: their arms pair with a control
+# fitted on the same demonstrations under the same protocol.)
 ARM = ("method", "explore.", "rounds.new_data", "rounds.select", "rounds.length_cap", "policy.action_range",
-       "rounds.demo_fraction", "rounds.aligned_windows", "policy.bypass.beta", "policy.action_frame",
-       "data.demo_style")  # fmt: skip
+       "rounds.demo_fraction", "rounds.aligned_windows", "policy.bypass.beta", "policy.action_frame")  # fmt: skip
 # Arm fields that refit round 0 but leave its base path as it is (the bypass's loss never reaches the
 # encoder or the head): an arm differing from its control there pairs with it only where their round-0
 # evaluations agree state by state.

@@ -125,6 +125,27 @@ def test_a_round_0_only_campaign_tables_round_0s_success_and_nothing_after(tmp_p
   )
 
 
+def test_an_arm_under_a_protocol_or_a_style_pairs_with_the_control_under_the_same(tmp_path):
+  """`protocol=sime` and `style=varied` arms fit their own round 0, and their control is the one fitted
+  on it (not the plain control, which is no one's control but its own arms'); the action range's control
+  differs from the plain one in an arm field only and pairs with it as an arm does."""
+  base, other = [1, 0, 0, 1], [0, 1, 1, 1]
+  _fake_run(tmp_path / "control", "control", 0, base, [1, 0, 0, 0])
+  _fake_run(tmp_path / "soe", "soe", 0, base, [1, 1, 0, 0])
+  for variant, after in (("protocol=sime", [0, 0, 0, 1]), ("style=varied", [1, 1, 1, 0])):
+    _fake_run(tmp_path / f"control-{variant}", f"control,{variant}", 0, other, after)
+    _fake_run(tmp_path / f"soe-{variant}", f"soe,{variant}", 0, other, [1, 1, 1, 1])
+  _fake_run(tmp_path / "control-range", "control,range=demonstrations", 0, base, [1, 1, 0, 1])
+  rows = {r["method"]: r for r in aggregate.rows(aggregate.find_runs(str(tmp_path)))}
+  gained = lambda m: (rows[m]["comparisons"]["control"]["gained"], rows[m]["comparisons"]["control"]["lost"])
+  assert gained("soe") == (1, 0) and gained("control-range_demonstrations") == (2, 0)
+  assert gained("soe-protocol_sime") == (3, 0) and gained("soe-style_varied") == (1, 0)
+  assert rows["control-protocol_sime"]["vs_control"] == rows["control-style_varied"]["vs_control"] == "-"
+  md, _ = aggregate.aggregate(aggregate.find_runs(str(tmp_path)))
+  last = [line.split(" | ")[1] for line in md.splitlines()[-3:]]  # the controls' rows last
+  assert sorted(last) == ["control", "control-protocol_sime", "control-style_varied"]
+
+
 def test_seeds_logged_differently_are_one_arm(tmp_path):
   """How a run is logged (videos, wandb) is not part of the experiment: it does not split an arm."""
   for seed in (0, 1):
