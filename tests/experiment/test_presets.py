@@ -73,7 +73,7 @@ def test_variant_presets_set_and_name_their_field():
 def test_cpu_preset_takes_each_tasks_demos_and_steps():
   """Under `cpu` each task has its own number of demonstrations and round-0 steps."""
   lift, can, square = (config.get_config("cpu") for config in (lift_config, can_config, square_config))
-  assert (lift.data.num_demos, lift_config.get_config("").data.num_demos) == (3, 10)
+  assert (lift.data.num_demos, lift_config.get_config("").data.num_demos) == (5, 10)
   assert can.data.num_demos == square.data.num_demos == can_config.get_config("").data.num_demos == 20
   assert [c.fit.num_steps for c in (lift, can, square)] == [12_500, 20_000, 20_000]
   assert lift.policy.head.kwargs.down_dims == (32, 64, 128) and lift.fit.lr == 1e-3 and lift.rounds.refit_lr == 3e-4
@@ -129,7 +129,7 @@ def test_the_cpu_preset_is_the_protocol_the_rule_picked():
   aligned windows (not for the oracles' scripted episodes), and the paper's exploration settings."""
   from soe_jax.experiment import presets
 
-  for config, demos in ((lift_config, 3), (can_config, 20), (square_config, 20)):
+  for config, demos in ((lift_config, 5), (can_config, 20), (square_config, 20)):
     for method in ("control", "dp", "sime", "soe", "soe_steer", "dp,expert_data"):
       c = config.get_config(f"cpu,{method}")
       p = c.policy
