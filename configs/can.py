@@ -6,11 +6,12 @@ runs round 0 and one round of SOE exploration, re-fit and evaluation (soe_jax/ex
 each preset does), leaving metrics.jsonl, report.md and plots in runs/can-soe-seed0/. Swap `soe` for
 `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
 
-Demonstrations: 20, robomimic's core_20 as SIME uses it. Under the `cpu` preset a 20k-step round-0
-fit (771 s of fit here; rounds keep the preset's 3k-step re-fit) converges: 49.5% of 400 evaluation
-start states [44.6%, 54.4%] (seed 0), and 10k more steps on the same data change that by -1.2
-points [-5.6, +3.1] (BENCHMARKS.md, "Convergence of round 0";
-results/convergence/10_can_cpu_20demos_20k.json).
+Demonstrations: 20, robomimic's core_20 as SIME uses it; under the `cpu` preset varied ones (human-like
+paths, grasps and pacing: RESULTS.md, "Human-like demonstrations"), under SIME's protocol, with a
+20k-step round-0 fit, which every round repeats from fresh parameters: round 0 succeeds on 64.5% of 200
+evaluation start states (seed 0; results/protocol-count/picked-can-n20/). On scripted demonstrations
+under the first protocol (`protocol=continued,style=scripted`) round 0 converged at 49.5% of 400
+states (BENCHMARKS.md, "Convergence of round 0"; results/convergence/10_can_cpu_20demos_20k.json).
 """
 
 from soe_jax.experiment import presets

@@ -25,6 +25,10 @@
 #   that would not finish within one session, to results/protocol-main/TASK-1/ and TASK-2/.
 # PART rounds-lift: dp, sime, soe and the control on Lift over 3 rounds, eval.seed 33333, one
 #   invocation, to results/protocol-rounds/lift/.
+# The parts before main-TASK measure their arms as the `cpu` preset defined them before it took the
+# protocol they picked (SIME's on varied demonstrations): under a config whose control arm has either,
+# their arms would be others than the committed results', so the script refuses and names the commit
+# each part's seeds ran at (c0b0bca; picked-count: 8d0b68b).
 # Work directories outside the work tree (WORKDIR, default /work/runs-protocol, one per part);
 # re-running resumes. CONFIG (default configs/lift.py:cpu; the main and rounds parts take
 # configs/TASK.py:PRESET, PRESET default cpu) and RESULTS (default results) may be set in the
@@ -46,8 +50,19 @@ if [[ $part =~ ^main-(lift|can|square)(-([12]))?$ ]]; then
     --results="$out/protocol-main/${part#main-}" --progress=false
   exit
 fi
+before_protocol() {  # before_protocol SPEC COMMIT: refuse a config whose control has the picked protocol
+  python -c 'import sys; from soe_jax.runtime import configfile
+c = configfile.load(sys.argv[1], "control")
+sys.exit((c.rounds.refit, c.data.demo_style) != ("continue", "scripted"))' "$1" || {
+    echo "$1: the cpu preset has taken the protocol this part's experiments picked, so its arms would not" \
+      "be the committed results' arms; run it at commit $2 (git worktree add --detach DIR $2) or with" \
+      "CONFIG/PRESET without it" >&2
+    exit 2
+  }
+}
 if [[ $part =~ ^picked-count-(lift|can|square)-([0-9]+)$ ]]; then
   task=${BASH_REMATCH[1]} count=${BASH_REMATCH[2]}
+  before_protocol "configs/$task.py:${PRESET:-cpu}" 8d0b68b
   python -m soe_jax campaign --config="configs/$task.py:${PRESET:-cpu}" --config.seed="$seed" \
     --config.data.num_demos="$count" --config.rounds.num_rounds=0 --methods=control+protocol=sime+style=varied \
     --workdir="$runs/picked-count-$task-$count" --results="$out/protocol-count/picked-$task-n$count" --progress=false
@@ -67,6 +82,7 @@ case ${part%-*} in
 esac
 count=${part##*-}
 [[ $count =~ ^[0-9]+$ ]] || { echo "$part: the part ends in its demonstration count, a number" >&2; exit 2; }
+before_protocol "$config" c0b0bca
 campaign() {  # campaign METHODS NAME RESULTS
   python -m soe_jax campaign --config="$config" --config.seed="$seed" --config.data.num_demos="$count" \
     --methods="$1" --workdir="$runs/$2" --results="$out/$3" --progress=false

@@ -10,12 +10,15 @@ runs/TASK-METHOD-seed<k>/. Round 0 is shared by every method run beside it.
 Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
 `configs/square.py:head=flow_unet,smoke`:
 - `smoke`: tiny networks, two short rounds, seconds once compiled (for tests);
-- `cpu`: the recipe that converged fastest on a 2-core CPU: the narrow UNet 32/64/128 at AdamW 1e-3
-  and batch 64, 10k round-0 steps, one round whose re-fit continues for 3k steps at 3e-4 with the EMA
-  carried on; each task's own number of demonstrations and round-0 steps where it needs others (its
-  config says which, and the converged base success measured with them); and what "why own successes
-  hurt" adopted (RESULTS.md): the bypass's KL weight 1e-5 (the paper's 1e-3 otherwise) and re-fit
-  windows aligned to the recorded decisions of the episodes the policy collected itself;
+- `cpu`: the protocol docs/protocol.md picked (RESULTS.md, "Applying the rule"): SIME's
+  (`protocol=sime`: one observation step, 20-step chunks executed whole, `train_0.5` selection, one
+  round re-trained from fresh parameters with round 0's recipe) on varied demonstrations
+  (`style=varied`), each task's number of them calibrated to a round 0 in 20-80% (its config says
+  which); the recipe that converged fastest on a 2-core CPU: the narrow UNet 32/64/128 at AdamW 1e-3
+  and batch 64, 10k round-0 steps or the task's own; and what "why own successes hurt" adopted: the
+  bypass's KL weight 1e-5 (the paper's 1e-3 otherwise) and re-fit windows aligned to the recorded
+  decisions of the episodes the policy collected itself. (Under `protocol=continued`, the first
+  campaigns' protocol, a re-fit continues for 3k steps at 3e-4 with the EMA carried on.);
 - none: paper scale (Diffusion Policy's low-dim UNet, 25k steps of AdamW 3e-4 at batch 256, DDIM-10,
   3 rounds), for accelerators (there with `--config.env.backend=mujoco`: MJX compiles and steps
   these contact-rich scenes slowly even on an H100; BENCHMARKS.md);
@@ -72,6 +75,20 @@ CPU_IMAGE_WIDTHS = (16, 32, 64, 128)
 SMOKE_IMAGE_WIDTHS = (8, 8, 16, 16)
 # The bypass's KL weight under `cpu` (the paper's, `base_config`'s, is 1e-3).
 CPU_BETA = 1e-5
+# The protocol and the demonstrations under `cpu` (docs/protocol.md's rule, applied in RESULTS.md).
+CPU_PROTOCOL = "sime"
+CPU_STYLE = "varied"
+
+
+def set_fields(c: ml_collections.ConfigDict, fields: dict) -> bool:
+  """Set each dotted field of `c` to its value -> whether any changed."""
+  changed = False
+  for field, value in fields.items():
+    *sections, key = field.split(".")
+    section = functools.reduce(getattr, sections, c)
+    changed |= section[key] != value
+    section[key] = value
+  return changed
 
 
 def parse_arg(arg: str | None) -> dict:
@@ -203,6 +220,8 @@ def apply_presets(
     # (The oracle arms' scripted episodes were never sampled in chunks: every window of theirs is drawn.)
     c.policy.bypass.beta = CPU_BETA
     c.rounds.aligned_windows = c.rounds.new_data != "expert"
+    set_fields(c, PROTOCOLS[CPU_PROTOCOL])
+    c.data.demo_style = CPU_STYLE
     if steer is not None:  # a whole round of 500 steered episodes: lighter steering
       steer.update(num_proposals=8, every=4, max_dims=2)
   for preset, (field, suffix) in VARIANTS.items():
@@ -274,12 +293,6 @@ def apply_presets(
     name = presets["protocol"]
     if name not in PROTOCOLS:
       raise ValueError(f"unknown protocol {name!r}; known protocols: {', '.join(PROTOCOLS)}")
-    changed = False
-    for field, value in PROTOCOLS[name].items():
-      *sections, key = field.split(".")
-      section = functools.reduce(getattr, sections, c)
-      changed |= section[key] != value
-      section[key] = value
-    if changed:  # (as a variant: the arm is named by what its presets change)
+    if set_fields(c, PROTOCOLS[name]):  # (as a variant: the arm is named by what its presets change)
       c.method = f"{c.method}-protocol_{name}"
   return c

@@ -73,7 +73,7 @@ def test_variant_presets_set_and_name_their_field():
 def test_cpu_preset_takes_each_tasks_demos_and_steps():
   """Under `cpu` each task has its own number of demonstrations and round-0 steps."""
   lift, can, square = (config.get_config("cpu") for config in (lift_config, can_config, square_config))
-  assert (lift.data.num_demos, lift_config.get_config("").data.num_demos) == (3, 10)
+  assert (lift.data.num_demos, lift_config.get_config("").data.num_demos) == (5, 10)
   assert can.data.num_demos == square.data.num_demos == can_config.get_config("").data.num_demos == 20
   assert [c.fit.num_steps for c in (lift, can, square)] == [12_500, 20_000, 20_000]
   assert lift.policy.head.kwargs.down_dims == (32, 64, 128) and lift.fit.lr == 1e-3 and lift.rounds.refit_lr == 3e-4
@@ -110,16 +110,36 @@ def test_cpu_preset_adopts_the_kl_weight_and_aligned_windows_and_its_variants_st
 
 
 def test_a_protocol_names_the_arm_only_where_it_changes_the_presets_fields():
-  """`protocol=continued` is the first campaigns' protocol, the `cpu` preset's until the rule picks;
-  `protocol=sime` changes every one of its fields and names the arm and its own round 0."""
-  plain, continued = lift_config.get_config("cpu,soe"), lift_config.get_config("cpu,soe,protocol=continued")
-  assert continued.method == "soe" and continued.to_dict() == plain.to_dict()
-  sime = lift_config.get_config("cpu,soe,protocol=sime")
-  assert sime.method == "soe-protocol_sime" and rundir.round0_key(sime) != rundir.round0_key(plain)
+  """`cpu` runs SIME's protocol, so `protocol=sime` changes nothing there; `protocol=continued`, the first
+  campaigns' protocol, changes every one of its fields and names the arm and its own round 0."""
+  plain, sime = lift_config.get_config("cpu,soe"), lift_config.get_config("cpu,soe,protocol=sime")
+  assert sime.method == "soe" and sime.to_dict() == plain.to_dict()
+  continued = lift_config.get_config("cpu,soe,protocol=continued")
+  assert continued.method == "soe-protocol_continued" and rundir.round0_key(continued) != rundir.round0_key(plain)
   fields = lambda c: (c.policy.n_obs_steps, c.policy.horizon, c.policy.n_action_steps, c.rounds.select, c.rounds.refit)
-  assert (fields(plain), fields(sime)) == ((2, 16, 8, "first_success", "continue"), (1, 20, 20, "sime", "scratch"))
+  assert (fields(plain), fields(continued)) == ((1, 20, 20, "sime", "scratch"), (2, 16, 8, "first_success", "continue"))
   with pytest.raises(ValueError, match="unknown protocol 'paper'; known protocols: sime, continued"):
     lift_config.get_config("cpu,soe,protocol=paper")
+
+
+def test_the_cpu_preset_is_the_protocol_the_rule_picked():
+  """docs/protocol.md applied (RESULTS.md, "Applying the rule"), for every arm: the workspace box, SIME's
+  protocol (one observation step, 20-step chunks executed whole, `train_0.5` selection, re-fits from
+  fresh parameters), varied demonstrations at each task's calibrated count, the KL weight 1e-5,
+  aligned windows (not for the oracles' scripted episodes), and the paper's exploration settings."""
+  from soe_jax.experiment import presets
+
+  for config, demos in ((lift_config, 5), (can_config, 20), (square_config, 20)):
+    for method in ("control", "dp", "sime", "soe", "soe_steer", "dp,expert_data"):
+      c = config.get_config(f"cpu,{method}")
+      p = c.policy
+      assert (p.action_range, p.n_obs_steps, p.horizon, p.n_action_steps) == ("workspace", 1, 20, 20)
+      assert (c.rounds.select, c.rounds.refit, c.rounds.num_rounds) == ("sime", "scratch", 1)
+      assert (c.data.demo_style, c.data.num_demos, p.bypass.beta) == ("varied", demos, 1e-5)
+      assert c.rounds.aligned_windows == (c.rounds.new_data != "expert")
+      name = c.explore.strategy.name
+      if name != "soe_steer":  # (steering is lighter under `cpu`; its sampling is soe's)
+        assert c.explore.strategy.kwargs.to_dict() == presets.strategy_config(name).kwargs.to_dict()
 
 
 def test_a_misspelled_override_suggests_the_field():

@@ -108,8 +108,16 @@ def test_every_part_of_why_own_successes_starts_commands_that_load(parsed, monke
     assert {c.rounds.aligned_windows for c in configs} == {False, True}
 
 
+@pytest.mark.parametrize("part", ["sime-count-4", "varied-count-3", "sime-4", "style-3", "picked-count-can-20"])
+def test_the_protocol_parts_refuse_the_cpu_preset_that_took_what_they_picked(tmp_path, part):
+  p, lines = _run(tmp_path, "protocol.sh", part, "0", "/tmp/runs-protocol")
+  commit = "8d0b68b" if part.startswith("picked") else "c0b0bca"
+  assert p.returncode == 2 and f"at commit {commit}" in p.stderr and lines == []
+
+
 @pytest.mark.parametrize("part", ["sime-count-10", "varied-count-5", "sime-10", "style-3"])
-def test_every_part_of_the_protocol_script_starts_commands_that_load(parsed, part):
+def test_every_part_of_the_protocol_script_starts_commands_that_load(parsed, monkeypatch, part):
+  monkeypatch.setenv("CONFIG", "configs/lift.py:smoke")  # (the first protocol and scripted demonstrations)
   lines = parsed("protocol.sh", part, "2", "/tmp/runs-protocol")
   count = int(part.rsplit("-", 1)[1])
   ((_, configs),) = [(argv, found) for argv, found in lines if found]
@@ -127,7 +135,8 @@ def test_every_part_of_the_protocol_script_starts_commands_that_load(parsed, par
 
 
 @pytest.mark.parametrize("task, count", [("lift", 6), ("square", 20)])
-def test_the_picked_count_calibration_runs_sime_protocol_on_varied_demonstrations(parsed, task, count):
+def test_the_picked_count_calibration_runs_sime_protocol_on_varied_demonstrations(parsed, monkeypatch, task, count):
+  monkeypatch.setenv("PRESET", "smoke")
   ((argv, configs),) = parsed("protocol.sh", f"picked-count-{task}-{count}", "1", "/tmp/runs-protocol")
   (arm,) = configs.values()
   assert arm.method == "control-style_varied-protocol_sime" and arm.env.task == task and arm.seed == 1
