@@ -17,8 +17,8 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
   which); the recipe that converged fastest on a 2-core CPU: the narrow UNet 32/64/128 at AdamW 1e-3
   and batch 64, 10k round-0 steps or the task's own; and what "why own successes hurt" adopted: the
   bypass's KL weight 1e-5 (the paper's 1e-3 otherwise) and re-fit windows aligned to the recorded
-  decisions of the episodes the policy collected itself. (Under `protocol=continued`, the first
-  campaigns' protocol, a re-fit continues for 3k steps at 3e-4 with the EMA carried on.);
+  decisions of the episodes the policy collected itself (under `protocol=continued`, the first
+  campaigns' protocol, a re-fit continues for 3k steps at 3e-4 with the EMA carried on);
 - none: paper scale (Diffusion Policy's low-dim UNet, 25k steps of AdamW 3e-4 at batch 256, DDIM-10,
   3 rounds), for accelerators (there with `--config.env.backend=mujoco`: MJX compiles and steps
   these contact-rich scenes slowly even on an H100; BENCHMARKS.md);
