@@ -34,6 +34,7 @@
 # configs/TASK.py:PRESET, PRESET default cpu) and RESULTS (default results) may be set in the
 # environment, e.g. CONFIG=configs/lift.py:smoke PRESET=smoke RESULTS=/tmp/protocol for a quick check.
 set -euo pipefail
+source "$(dirname "$0")/measured_as.sh"
 part=${1:?sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2] or rounds-lift}
 seed=${2:?the training seed}
 runs=${3:-/work/runs-protocol}
@@ -50,19 +51,9 @@ if [[ $part =~ ^main-(lift|can|square)(-([12]))?$ ]]; then
     --results="$out/protocol-main/${part#main-}" --progress=false
   exit
 fi
-before_protocol() {  # before_protocol SPEC COMMIT: refuse a config whose control has the picked protocol
-  python -c 'import sys; from soe_jax.runtime import configfile
-c = configfile.load(sys.argv[1], "control")
-sys.exit((c.rounds.refit, c.data.demo_style) != ("continue", "scripted"))' "$1" || {
-    echo "$1: the cpu preset has taken the protocol this part's experiments picked, so its arms would not" \
-      "be the committed results' arms; run it at commit $2 (git worktree add --detach DIR $2) or with" \
-      "CONFIG/PRESET without it" >&2
-    exit 2
-  }
-}
 if [[ $part =~ ^picked-count-(lift|can|square)-([0-9]+)$ ]]; then
   task=${BASH_REMATCH[1]} count=${BASH_REMATCH[2]}
-  before_protocol "configs/$task.py:${PRESET:-cpu}" 8d0b68b
+  measured_as "configs/$task.py:${PRESET:-cpu}" control 8d0b68b rounds.refit=continue data.demo_style=scripted
   python -m soe_jax campaign --config="configs/$task.py:${PRESET:-cpu}" --config.seed="$seed" \
     --config.data.num_demos="$count" --config.rounds.num_rounds=0 --methods=control+protocol=sime+style=varied \
     --workdir="$runs/picked-count-$task-$count" --results="$out/protocol-count/picked-$task-n$count" --progress=false
@@ -82,7 +73,7 @@ case ${part%-*} in
 esac
 count=${part##*-}
 [[ $count =~ ^[0-9]+$ ]] || { echo "$part: the part ends in its demonstration count, a number" >&2; exit 2; }
-before_protocol "$config" c0b0bca
+measured_as "$config" control c0b0bca rounds.refit=continue data.demo_style=scripted
 campaign() {  # campaign METHODS NAME RESULTS
   python -m soe_jax campaign --config="$config" --config.seed="$seed" --config.data.num_demos="$count" \
     --methods="$1" --workdir="$runs/$2" --results="$out/$3" --progress=false

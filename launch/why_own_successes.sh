@@ -27,6 +27,7 @@
 # re-running resumes. CONFIG (default configs/lift.py:cpu) and RESULTS (default results) may be set in the
 # environment, e.g. CONFIG=configs/lift.py:smoke RESULTS=/tmp/why for a quick check of the whole path.
 set -euo pipefail
+source "$(dirname "$0")/measured_as.sh"
 seed=${1:?the training seed}
 runs=${2:-/work/runs-why}
 part=${3:-all}
@@ -38,15 +39,7 @@ out=${RESULTS:-results}
 before_adoption=f21cbfe
 spec=$config
 [[ $part == square ]] && spec=${SQUARE_CONFIG:-configs/square.py:cpu}
-python -c 'import sys; from soe_jax.runtime import configfile
-c = configfile.load(sys.argv[1], "soe")
-sys.exit((c.policy.bypass.beta, c.rounds.aligned_windows) != (1e-3, False))' "$spec" || {
-  echo "$spec: its soe arm has the KL weight or the aligned windows the cpu preset adopted from these" \
-    "experiments, so its arms would not be the committed results' arms; run this script at commit" \
-    "$before_adoption (git worktree add --detach DIR $before_adoption) or with CONFIG/SQUARE_CONFIG" \
-    "without them" >&2
-  exit 2
-}
+measured_as "$spec" soe "$before_adoption" policy.bypass.beta=1e-3 rounds.aligned_windows=False
 # Parts d and square: the picked KL weight and aligned windows, each alone and together, beside soe.
 beta_arms="control,soe,soe+beta=${BETA:-},soe+aligned=true,soe+beta=${BETA:-}+aligned=true"
 if [[ $part == a || $part == all ]]; then

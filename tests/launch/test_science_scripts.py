@@ -69,10 +69,11 @@ def parsed(monkeypatch, tmp_path):
 @pytest.mark.parametrize("part", ["a", "b", "c", "d", "square"])
 def test_why_own_successes_refuses_the_cpu_preset_that_adopted_its_findings(monkeypatch, tmp_path, part):
   """Its committed arms were measured before `cpu` adopted beta 1e-5 and aligned windows: under it the
-  script starts nothing and names the commit to run it at."""
+  script starts nothing and names the fields that differ and the commit to run it at."""
   monkeypatch.setenv("BETA", "1e-05")
   p, lines = _run(tmp_path, "why_own_successes.sh", "1", "/tmp/runs-why", part)
   assert p.returncode == 2 and "at commit f21cbfe" in p.stderr and lines == []
+  assert "policy.bypass.beta is 1e-05, not 0.001; rounds.aligned_windows is True, not False" in p.stderr
 
 
 @pytest.mark.parametrize("part", ["a", "b", "c", "d", "square"])
@@ -113,6 +114,7 @@ def test_the_protocol_parts_refuse_the_cpu_preset_that_took_what_they_picked(tmp
   p, lines = _run(tmp_path, "protocol.sh", part, "0", "/tmp/runs-protocol")
   commit = "8d0b68b" if part.startswith("picked") else "c0b0bca"
   assert p.returncode == 2 and f"at commit {commit}" in p.stderr and lines == []
+  assert "its control arm" in p.stderr and "rounds.refit is 'scratch', not 'continue'" in p.stderr
 
 
 @pytest.mark.parametrize("part", ["sime-count-10", "varied-count-5", "sime-10", "style-3"])
