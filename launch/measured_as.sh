@@ -11,6 +11,7 @@ measured_as() {
 from soe_jax.runtime import configfile
 spec, arm, *pairs = sys.argv[1:]
 node = configfile.load(spec, arm)
+differs = []
 for pair in pairs:
   field, want = pair.split("=", 1)
   try:
@@ -21,10 +22,11 @@ for pair in pairs:
   for key in field.split("."):
     got = got[key]
   if got != want:
-    print(f"{field} is {got!r}, not {want!r}")' "$spec" "$arm" "$@") || exit 2
+    differs.append(f"{field} is {got!r}, not {want!r}")
+print("; ".join(differs))' "$spec" "$arm" "$@") || exit 2
   [[ -z $differs ]] && return
   echo "$spec: its $arm arm differs from the setting this script's committed results were measured" \
-    "under ($(echo "$differs" | paste -sd ';' | sed 's/;/; /g')), so its arms would not be those results'" \
+    "under ($differs), so its arms would not be those results'" \
     "arms; run it at commit $commit (git worktree add --detach DIR $commit) or with a CONFIG without the" \
     "change" >&2
   exit 2

@@ -40,6 +40,8 @@ seed=${2:?the training seed}
 runs=${3:-/work/runs-protocol}
 config=${CONFIG:-configs/lift.py:cpu}
 out=${RESULTS:-results}
+# The first protocol on scripted demonstrations: what the control arm had when the parts before main-TASK ran.
+first_protocol=(rounds.refit=continue data.demo_style=scripted)
 eval_seed=33333  # the main campaign's evaluation states: used by neither science issue (77777, 55555)
 main_arms=(control,dp,sime,soe control,soe_steer,dp+expert_data,soe+expert_data)
 if [[ $part =~ ^main-(lift|can|square)(-([12]))?$ ]]; then
@@ -53,7 +55,7 @@ if [[ $part =~ ^main-(lift|can|square)(-([12]))?$ ]]; then
 fi
 if [[ $part =~ ^picked-count-(lift|can|square)-([0-9]+)$ ]]; then
   task=${BASH_REMATCH[1]} count=${BASH_REMATCH[2]}
-  measured_as "configs/$task.py:${PRESET:-cpu}" control 8d0b68b rounds.refit=continue data.demo_style=scripted
+  measured_as "configs/$task.py:${PRESET:-cpu}" control 8d0b68b "${first_protocol[@]}"
   python -m soe_jax campaign --config="configs/$task.py:${PRESET:-cpu}" --config.seed="$seed" \
     --config.data.num_demos="$count" --config.rounds.num_rounds=0 --methods=control+protocol=sime+style=varied \
     --workdir="$runs/picked-count-$task-$count" --results="$out/protocol-count/picked-$task-n$count" --progress=false
@@ -73,7 +75,7 @@ case ${part%-*} in
 esac
 count=${part##*-}
 [[ $count =~ ^[0-9]+$ ]] || { echo "$part: the part ends in its demonstration count, a number" >&2; exit 2; }
-measured_as "$config" control c0b0bca rounds.refit=continue data.demo_style=scripted
+measured_as "$config" control c0b0bca "${first_protocol[@]}"
 campaign() {  # campaign METHODS NAME RESULTS
   python -m soe_jax campaign --config="$config" --config.seed="$seed" --config.data.num_demos="$count" \
     --methods="$1" --workdir="$runs/$2" --results="$out/$3" --progress=false
