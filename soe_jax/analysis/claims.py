@@ -12,6 +12,7 @@ baseline the claim names. Every test pairs the methods of a training seed on the
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from scipy import stats
@@ -19,6 +20,26 @@ from scipy import stats
 from soe_jax import metrics
 
 ALPHA = 0.05
+
+
+class Claim(NamedTuple):
+  """One claim tested: what the paper says, the verdict ("reproduced", "not reproduced" or "not
+  measured") and the numbers behind it; `str` is the sentence the tables print."""
+
+  title: str
+  verdict: str
+  detail: str
+
+  def __str__(self) -> str:
+    if self.verdict == "not measured":
+      return f"{self.title}: not measured ({self.detail})."
+    return f"{self.title}: {self.verdict}; {self.detail}."
+
+
+SUCCESS = "SOE raises success (paper: +19% to +62% relative, DP can degrade)"
+PASS = "Pass@5 ordered SOE > SIME > DP"
+ROLLOUTS = "SOE needs the fewest rollouts"
+JERK = "SIME's jerk far above DP's and SOE's"
 
 
 def _by_method(rows: list[dict], task: str) -> dict:
@@ -45,10 +66,10 @@ def _verdict(ok: bool) -> str:
   return "reproduced" if ok else "not reproduced"
 
 
-def success_claim(m: dict) -> str:
+def success_claim(m: dict) -> Claim:
   soe, dp = m.get("soe"), m.get("dp")
   if soe is None or soe["comparisons"]["control"] is None:
-    return "Success after one round (SOE against the control): not measured (no soe and control runs)."
+    return Claim(SUCCESS, "not measured", "no soe and control runs")
   c, dp_c = soe["comparisons"]["control"], dp and dp["comparisons"]["control"]
   ok = c["difference_mean"] > 0 and c["p_value"] < ALPHA
   rel = [x for x in soe["per_seed"]["improvement_rel"] if x is not None]
@@ -56,27 +77,25 @@ def success_claim(m: dict) -> str:
   dp_text = ""
   if dp_c is not None:
     dp_text = f"; DP against the control {100 * dp_c['difference_mean']:+.1f} points (p = {dp_c['p_value']:.2g})"
-  return (
-    f"SOE raises success (paper: +19% to +62% relative, DP can degrade): {_verdict(ok)}. SOE against the "
-    f"control {100 * c['difference_mean']:+.1f} points (p = {c['p_value']:.2g}, {c['seeds']} seed{'s' if c['seeds'] > 1 else ''}), "
-    f"{rel}{dp_text}."
-  )
+  seeds = f"{c['seeds']} seed{'s' if c['seeds'] > 1 else ''}"
+  detail = f"SOE against the control {100 * c['difference_mean']:+.1f} points (p = {c['p_value']:.2g}, {seeds}), {rel}"
+  return Claim(SUCCESS, _verdict(ok), detail + dp_text)
 
 
 def _pass_pairs(a: dict, b: dict):
   return _seed_pairs(a, b, lambda r: None if (e := _explored(r)) is None else e.any(axis=1))
 
 
-def pass_claim(m: dict) -> str:
+def pass_claim(m: dict) -> Claim:
   soe, sime, dp = m.get("soe"), m.get("sime"), m.get("dp")
   if not (soe and sime and dp):
-    return "Pass@5 (SOE > SIME > DP): not measured (needs soe, sime and dp runs)."
+    return Claim(PASS, "not measured", "needs soe, sime and dp runs")
   parts, ok = [], True
   for hi, lo, name in ((soe, sime, "SOE - SIME"), (sime, dp, "SIME - DP")):
     c = metrics.pooled_comparison(_pass_pairs(hi, lo))
     ok &= c["difference_mean"] > 0 and c["p_value"] < ALPHA
     parts.append(f"{name} {100 * c['difference_mean']:+.1f} points (p = {c['p_value']:.2g})")
-  return f"Pass@5 ordered SOE > SIME > DP: {_verdict(ok)}; {', '.join(parts)}."
+  return Claim(PASS, _verdict(ok), ", ".join(parts))
 
 
 def sign_test(a, b) -> dict:
@@ -90,20 +109,20 @@ def _rollouts(r: dict):
   return None if (e := _explored(r)) is None else metrics.rollouts(e)["per_state"]
 
 
-def rollouts_claim(m: dict) -> str:
+def rollouts_claim(m: dict) -> Claim:
   soe = m.get("soe")
   others = [(k, m[k]) for k in ("dp", "sime") if k in m]
   if soe is None or not others:
-    return "Rollouts (SOE fewest): not measured (needs soe and dp or sime runs)."
+    return Claim(ROLLOUTS, "not measured", "needs soe and dp or sime runs")
   parts, ok = [], True
   for name, other in others:
     pairs = _seed_pairs(soe, other, _rollouts)
     if not pairs:
-      return "Rollouts (SOE fewest): not measured (no per-state exploration outcomes)."
+      return Claim(ROLLOUTS, "not measured", "no per-state exploration outcomes")
     t = sign_test(np.concatenate([x for _, x in pairs]), np.concatenate([y for y, _ in pairs]))
     ok &= t["fewer"] > t["more"] and t["p_value"] < ALPHA
     parts.append(f"fewer than {name} on {t['fewer']} start states, more on {t['more']} (p = {t['p_value']:.2g})")
-  return f"SOE needs the fewest rollouts: {_verdict(ok)}; SOE needed {'; '.join(parts)}."
+  return Claim(ROLLOUTS, _verdict(ok), "SOE needed " + "; ".join(parts))
 
 
 def log_ratio_test(a: list[float], b: list[float]) -> dict:
@@ -114,10 +133,10 @@ def log_ratio_test(a: list[float], b: list[float]) -> dict:
   return dict(ratio=float(math.exp(d.mean())), p_value=p)
 
 
-def jerk_claim(m: dict) -> str:
+def jerk_claim(m: dict) -> Claim:
   soe, sime, dp = m.get("soe"), m.get("sime"), m.get("dp")
   if not (soe and sime and dp):
-    return "Jerk (SOE close to DP, SIME much higher): not measured (needs soe, sime and dp runs)."
+    return Claim(JERK, "not measured", "needs soe, sime and dp runs")
   tests = {}
   for name, a, b in (("SIME / DP", sime, dp), ("SIME / SOE", sime, soe), ("SOE / DP", soe, dp)):
     pairs = _seed_pairs(a, b, lambda run: run.get("jerk"))
@@ -126,9 +145,9 @@ def jerk_claim(m: dict) -> str:
   ok = all(tests[k]["ratio"] > 1 and significant(tests[k]) for k in ("SIME / DP", "SIME / SOE"))
   p = lambda t: "-" if t["p_value"] is None else f"{t['p_value']:.2g}"
   shown = [f"{k} {t['ratio']:.2f}x (p = {p(t)})" for k, t in tests.items()]
-  return f"SIME's jerk far above DP's and SOE's: {_verdict(ok)}; {', '.join(shown)}."
+  return Claim(JERK, _verdict(ok), ", ".join(shown))
 
 
-def claims(rows: list[dict], task: str) -> list[str]:
+def claims(rows: list[dict], task: str) -> list[Claim]:
   m = _by_method(rows, task)
   return [success_claim(m), pass_claim(m), rollouts_claim(m), jerk_claim(m)]

@@ -15,11 +15,13 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from soe_jax import metrics
+from soe_jax.analysis.claims import Claim
 from soe_jax.analysis.tables import markdown, spread
 
 ALPHA = 0.05
 # The methods of the paper's figure, in its order; the control is drawn beside them.
 METHODS = ("dp", "sime", "soe", "control")
+ROUNDS = "Only SOE improves monotonically over rounds"
 
 
 def rounds_of(row: dict) -> list[int]:
@@ -91,7 +93,7 @@ def table(rows: list[dict]) -> str:
   return markdown(header, out)
 
 
-def claim(rows: list[dict], task: str) -> str | None:
+def claim(rows: list[dict], task: str) -> Claim | None:
   """The paper's claim that only SOE improves monotonically over rounds, tested on `task`'s rows of
   several rounds (None when it has no SOE row of several rounds)."""
   m = {r["method"]: r for r in multi_round(rows) if r["task"] == task and not r["variant"]}
@@ -107,12 +109,8 @@ def claim(rows: list[dict], task: str) -> str | None:
     parts.append(
       f"{name} {path}% ({'improves every round' if improves_monotonically(m[name]) else 'does not improve every round'})"
     )
-  vs = " (against " + ", ".join(others) + ")" if others else " (no dp or sime runs to compare)"
-  return (
-    f"Only SOE improves monotonically over rounds{vs}: {'reproduced' if verdict else 'not reproduced'}; "
-    + "; ".join(parts)
-    + "."
-  )
+  vs = "against " + ", ".join(others) if others else "no dp or sime runs to compare"
+  return Claim(ROUNDS, "reproduced" if verdict else "not reproduced", f"{vs}: " + "; ".join(parts))
 
 
 def figure(rows: list[dict], path: str) -> None:

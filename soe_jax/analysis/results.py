@@ -9,7 +9,7 @@ monotonic improvement, `soe_jax.analysis.over_rounds`).
 
 In RESULTS.md and BENCHMARKS.md a generated table sits between `<!-- table: RESULTS_DIR -->` and
 `<!-- /table -->` (`<!-- table: RESULTS_DIR ARM:REFERENCE ... -->` for arms against each other,
-`against`); `--docs` (`docs`) rewrites each from its folder, and a test checks that they are current.
+`against`; `<!-- claims: RESULTS_DIR ... -->` for the paper's claims over several folders); `--docs` (`docs`) rewrites each from its folder, and a test checks that they are current.
 `--docs` also draws each figure of rounds named by a line `<!-- figure: RESULTS_DIR PATH.png -->`.
 """
 
@@ -84,15 +84,36 @@ def campaign_claims(rows: list[dict]) -> str:
   none: a control alone tests none)."""
   lines = []
   for task in sorted({r["task"] for r in rows}):
-    lines += [f"- {task}: {c}" for c in claims.claims(rows, task) if ": not measured" not in c]
+    lines += [f"- {task}: {c}" for c in claims.claims(rows, task) if c.verdict != "not measured"]
     if (c := over_rounds.claim(rows, task)) is not None:
       lines.append(f"- {task}: {c}")
   return "".join(line + "\n" for line in lines)
 
 
+def claims_summary(folders: list[str]) -> str:
+  """The paper's claims over several campaigns' folders (a task each, or part of one): per claim, a
+  line per folder and task with its verdict, its numbers and its training seeds. A folder of several
+  rounds answers the claim over rounds alone (its other claims would mix rounds)."""
+  found = {}
+  for folder in folders:
+    if not (runs := aggregate.find_runs(folder)):
+      raise FileNotFoundError(f"no exported runs in {folder!r} for the claims")
+    rows = aggregate.rows(runs)
+    for task in sorted({r["task"] for r in rows}):
+      seeds = max(r["seeds"] for r in rows if r["task"] == task)
+      tested = [over_rounds.claim(rows, task)] if over_rounds.multi_round(rows) else claims.claims(rows, task)
+      for c in tested:
+        if c is not None and c.verdict != "not measured":
+          where = f"{task}, {seeds} seed{'s' if seeds > 1 else ''} (`{folder}`)"
+          found.setdefault(c.title, []).append(f"  - {where}: **{c.verdict}**; {c.detail}.\n")
+  return "".join(f"- {title}:\n" + "".join(lines) for title, lines in found.items())
+
+
 # A generated table in RESULTS.md or BENCHMARKS.md: between these lines, naming its results folder (and
-# for a table of arms against each other, the pairs).
+# for a table of arms against each other, the pairs); or the paper's claims over several folders
+# (`claims_summary`), naming them.
 _BEGIN = re.compile(r"^<!-- table: (\S+)((?: \S+:\S+)*) -->$")
+_CLAIMS = re.compile(r"^<!-- claims: (\S+(?: \S+)*) -->$")
 # A generated figure of rounds (`over_rounds.figure`): this line names its results folder and its file.
 _FIGURE = re.compile(r"^<!-- figure: (\S+) (\S+) -->$")
 _END = "<!-- /table -->"
@@ -102,14 +123,16 @@ DOCS = ("RESULTS.md", "BENCHMARKS.md")
 def regenerate(text: str) -> str:
   """`text` with every generated table replaced by the one its results folder gives now."""
   out, lines, i = [], text.splitlines(keepends=True), 0
+  opens = lambda line: _BEGIN.match(line.rstrip("\n")) or _CLAIMS.match(line.rstrip("\n"))
   while i < len(lines):
     out.append(lines[i])
-    if m := _BEGIN.match(lines[i].rstrip("\n")):
+    if m := opens(lines[i]):
       end = next((j for j in range(i + 1, len(lines)) if lines[j].rstrip("\n") == _END), None)
-      begin = next((j for j in range(i + 1, end or len(lines)) if _BEGIN.match(lines[j].rstrip("\n"))), None)
+      begin = next((j for j in range(i + 1, end or len(lines)) if opens(lines[j])), None)
       if end is None or begin is not None:  # an unclosed marker would swallow the text up to the next table's end
         raise ValueError(f"'{lines[i].strip()}' has no '{_END}' after it before the next table")
-      out += [table(m.group(1), m.group(2).split()), lines[end]]
+      made = claims_summary(m.group(1).split()) if m.re is _CLAIMS else table(m.group(1), m.group(2).split())
+      out += [made, lines[end]]
       i = end
     i += 1
   return "".join(out)

@@ -209,8 +209,8 @@ def test_the_papers_claims_are_tested_on_the_paired_runs(tmp_path):
       after = good if method == "soe" else bad
       _fake_run(tmp_path / f"s{seed}" / method, method, seed, base, after, explored[method], jerks[method][seed])
     _fake_run(tmp_path / f"s{seed}" / "control", "control", seed, base, bad)
-  success, passes, rollouts, jerk = claims.claims(aggregate.rows(aggregate.find_runs(str(tmp_path))), "lift")
-  assert success.startswith("SOE raises success (paper: +19% to +62% relative, DP can degrade): reproduced.")
+  success, passes, rollouts, jerk = map(str, claims.claims(aggregate.rows(aggregate.find_runs(str(tmp_path))), "lift"))
+  assert success.startswith("SOE raises success (paper: +19% to +62% relative, DP can degrade): reproduced;")
   assert "SOE against the control +62.5 points (p = " in success and "DP against the control +0.0 points" in success
   assert "relative to round 0 undefined (round 0 at 0%)" in success
   assert passes.startswith("Pass@5 ordered SOE > SIME > DP: reproduced;")  # per seed: 40, 25 and 0 states
@@ -224,6 +224,14 @@ def test_the_papers_claims_are_tested_on_the_paired_runs(tmp_path):
   assert "SOE / DP 0.99x (p = 0.8" in jerk
   md = results.table(str(tmp_path))
   assert "- lift: SOE needs the fewest rollouts: reproduced" in md
+  # Over several folders: per claim, a line per folder naming its verdict, numbers and seeds.
+  summary = results.regenerate(f"<!-- claims: {tmp_path} {tmp_path / 's0'} -->\n<!-- /table -->\n").splitlines()
+  assert summary[1] == "- SOE raises success (paper: +19% to +62% relative, DP can degrade):"
+  assert summary[2].startswith(
+    f"  - lift, 3 seeds (`{tmp_path}`): **reproduced**; SOE against the control +62.5 points"
+  )
+  assert summary[3].startswith(f"  - lift, 1 seed (`{tmp_path / 's0'}`): **reproduced**; SOE against the control")
+  assert summary[4] == "- Pass@5 ordered SOE > SIME > DP:" and len(summary) == 1 + 4 * 3 + 1
 
 
 def test_a_kl_arm_pairs_with_the_control_only_where_its_base_path_is_the_controls(tmp_path):

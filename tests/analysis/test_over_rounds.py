@@ -52,8 +52,8 @@ def test_rounds_are_paired_and_only_soe_improves_monotonically(tmp_path):
   assert [s["difference_mean"] for s in over_rounds.steps(dp)] == pytest.approx([-0.25, 0.5, 0.0])
   assert over_rounds.improves_monotonically(soe) and not over_rounds.improves_monotonically(dp)
   assert not over_rounds.improves_monotonically(rows["control"])  # no change is no improvement
-  claim = over_rounds.claim(list(rows.values()), "lift")
-  assert claim.startswith("Only SOE improves monotonically over rounds (against dp): reproduced;")
+  claim = str(over_rounds.claim(list(rows.values()), "lift"))
+  assert claim.startswith("Only SOE improves monotonically over rounds: reproduced; against dp: soe 10.0")
   assert "soe 10.0 -> 35.0 -> 60.0 -> 85.0% (improves every round)" in claim and "dp 50.0 -> 25.0" in claim
 
 
@@ -64,6 +64,9 @@ def test_the_rounds_table_and_figure_come_from_the_runs(tmp_path):
   assert lines == ["| lift | soe | 3 | 10.0 ± 0.0 | 35.0 ± 0.0 | 60.0 ± 0.0 | 85.0 ± 0.0 | +25.0 pts, p=4.3e-08; "
                    "+25.0 pts, p=4.3e-08; +25.0 pts, p=4.3e-08 | 50 ± 0 / 60 ± 0 / 70 ± 0 | 10 ± 0 / 20 ± 0 / 30 ± 0 |"]  # fmt: skip
   assert "| lift | control | 3 | 50.0 ± 0.0 |" in table and "- lift: Only SOE improves monotonically" in table
+  summary = results.claims_summary([str(tmp_path)]).splitlines()  # rounds answer their claim alone
+  assert summary[0] == "- Only SOE improves monotonically over rounds:" and len(summary) == 2
+  assert summary[1].startswith(f"  - lift, 3 seeds (`{tmp_path}`): **reproduced**; against dp: soe 10.0 -> 35.0")
   path = tmp_path / "rounds.png"
   over_rounds.figure(rows, str(path))
   assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
