@@ -15,9 +15,10 @@ import ml_collections
 import numpy as np
 
 from soe_jax.data import buffer as buffer_lib
+from soe_jax.experiment import task
 from soe_jax.policies import normalizer as normalizer_lib
-from soe_jax.train import checkpoint, train_state
 from soe_jax.train import fit as fit_lib
+from soe_jax.train import train_state
 
 
 def _param_count(tree) -> int:
@@ -25,7 +26,7 @@ def _param_count(tree) -> int:
 
 
 def _random_setup(config, key):
-  policy = checkpoint.policy_from_config(config)
+  policy = task.policy(config)
   obs_dim, action_dim = policy.obs_dim, policy.action_dim
   rng = np.random.default_rng(0)
   n, length = 64, 120

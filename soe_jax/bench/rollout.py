@@ -16,17 +16,17 @@ import ml_collections
 import numpy as np
 
 from soe_jax.envs import registry
+from soe_jax.experiment import task
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.explore import rollout
 from soe_jax.policies import normalizer as normalizer_lib
 from soe_jax.policies.agent import Agent
-from soe_jax.train import checkpoint
 
 
 def run(config: ml_collections.ConfigDict, strategy: str, num_envs: int, decisions: int = 2, repeats: int = 3) -> dict:
   config = ml_collections.ConfigDict(config)
   env = registry.env_from_config(config.env)
-  policy = checkpoint.policy_from_config(config)
+  policy = task.policy(config)
   rng = np.random.default_rng(0)
   obs = rng.uniform(-0.3, 1.1, (256, policy.obs_dim))
   actions = rng.uniform(-1, 1, (256, policy.action_dim))

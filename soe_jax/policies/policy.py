@@ -15,6 +15,7 @@ normalised actions (B, T, A).
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import chex
 import jax
@@ -58,15 +59,9 @@ class Policy:
   example_obs: object = dataclasses.field(default=None, compare=False, hash=False)
 
   def init(self, key) -> dict:
-    k_enc, k_head, k_p, k_q = jax.random.split(key, 4)
-    params = {
-      "encoder": self.encoder.init(k_enc, self.example_obs).get("params", {}),
-      "head": self.head.init(k_head, self.cond_dim),
-    }
-    if self.bypass:
-      params["p"] = self.p_net.init(k_p, jnp.zeros((1, self.cond_dim)))["params"]
-      params["q"] = self.q_net.init(k_q, jnp.zeros((1, self.p_net.latent_dim)))["params"]
-    return params
+    """Freshly initialised parameters, as one compiled program (op by op, a UNet's first
+    initialisation in a process took about 10 s here; compiled, it is cached on disk)."""
+    return _init(self, key, self.example_obs)
 
   def encode(self, params, obs, train: bool = False, key=None):
     rngs = {"crop": key} if key is not None else None
@@ -114,6 +109,20 @@ class Policy:
     actions, _ = self.head.sample(params["head"], self.decode_latent(params, z), key_head)
     chex.assert_shape([actions, z], [(None, self.horizon, self.action_dim), (None, self.p_net.latent_dim)])
     return actions, z
+
+
+@functools.partial(jax.jit, static_argnums=0)
+def _init(policy: Policy, key, example_obs) -> dict:
+  # (example_obs is an argument: the policy's hash and equality leave it out, its shapes key the program.)
+  k_enc, k_head, k_p, k_q = jax.random.split(key, 4)
+  params = {
+    "encoder": policy.encoder.init(k_enc, example_obs).get("params", {}),
+    "head": policy.head.init(k_head, policy.cond_dim),
+  }
+  if policy.bypass:
+    params["p"] = policy.p_net.init(k_p, jnp.zeros((1, policy.cond_dim)))["params"]
+    params["q"] = policy.q_net.init(k_q, jnp.zeros((1, policy.p_net.latent_dim)))["params"]
+  return params
 
 
 def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int, image_size=84) -> Policy:
