@@ -9,7 +9,8 @@ monotonic improvement, `soe_jax.analysis.over_rounds`).
 
 In RESULTS.md and BENCHMARKS.md a generated table sits between `<!-- table: RESULTS_DIR -->` and
 `<!-- /table -->` (`<!-- table: RESULTS_DIR ARM:REFERENCE ... -->` for arms against each other,
-`against`; `<!-- claims: RESULTS_DIR ... -->` for the paper's claims over several folders); `--docs` (`docs`) rewrites each from its folder, and a test checks that they are current.
+`against`; `<!-- claims: RESULTS_DIR ... -->` for the paper's claims over several folders); `--docs`
+(`docs`) rewrites each from its folder, and a test checks that they are current.
 `--docs` also draws each figure of rounds named by a line `<!-- figure: RESULTS_DIR PATH.png -->`.
 """
 
