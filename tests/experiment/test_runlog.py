@@ -22,7 +22,7 @@ def test_wandb_mirrors_each_phase_and_resumes_an_interrupted_run(tmp_path, monke
 
   import pytest
 
-  pytest.importorskip("wandb", reason="the wandb extra is not installed: pip install -e '.[wandb]'")
+  wandb = pytest.importorskip("wandb", reason="the wandb extra is not installed: pip install -e '.[wandb]'")
   monkeypatch.setenv("WANDB_MODE", "offline")
   monkeypatch.delenv("WANDB_DIR", raising=False)
   workdir = str(tmp_path)
@@ -42,6 +42,7 @@ def test_wandb_mirrors_each_phase_and_resumes_an_interrupted_run(tmp_path, monke
   run_id = open(os.path.join(workdir, runlog.WandbLog.ID_FILE)).read()
   with runlog.RunLog(workdir, runlog.WandbLog(workdir, {"seed": 3}, "soe_jax-test")) as log:  # resumed
     log.write(dict(record, round=1, kl=0.5))
+  wandb.teardown()  # finish() can return before wandb's writer process has flushed the files; this waits for it to exit
   runs = glob.glob(os.path.join(workdir, "wandb", f"offline-run-*-{run_id}*"))
   assert len(runs) == 2  # both sessions logged to the one run id, on disk only
   logged = b"".join(open(f, "rb").read() for r in runs for f in glob.glob(os.path.join(r, "*.wandb")))
