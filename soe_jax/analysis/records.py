@@ -150,11 +150,15 @@ def _kl_weight(config: dict) -> float:
   return config["policy"]["bypass"]["beta"]
 
 
+def _demo_style(config: dict) -> str:
+  return config.get("data", {}).get("demo_style", "scripted")  # (records from before the styles: scripted)
+
+
 def latent_table(records: Records) -> str:
   """`latent` records: the setting, round 0's success, the effective dimensions (SNR above the threshold,
   highest first, with the highest SNR), and the exploration, compared episode by episode with the first
   record's of the same task and seed (the same start states and keys; '-' for that record); over
-  several tasks, sizes, KL weights or seeds, the effective dimensions per seed below."""
+  several tasks, sizes, KL weights, demonstration styles or seeds, the effective dimensions per seed below."""
   first = records[0][1]
   paired = lambda r: (_task_and_size(r["config"])[0], r["config"].get("seed"))
   firsts = {}
@@ -186,27 +190,30 @@ def latent_table(records: Records) -> str:
   header = ["record", "setting", "commit", "round-0 success", "effective dims (SNR > 0 dB)", "highest SNR",
             "posterior variance E[sigma^2], median over dims", "exploration success", "Pass@k", "jerk",
             "vs the first of its task and seed: gained / lost (p)"]  # fmt: skip
-  groups = {_task_and_size(r["config"]) + (_kl_weight(r["config"]), r["config"].get("seed")) for _, r in records}
-  summary = "\n" + effective_dims_table(records) if len(groups) > 1 else ""  # tasks, sizes, KL weights or seeds
+  groups = {_summary_group(r["config"]) + (r["config"].get("seed"),) for _, r in records}
+  summary = "\n" + effective_dims_table(records) if len(groups) > 1 else ""  # several groups or seeds
   return markdown(header, rows) + summary
 
 
+def _summary_group(config: dict) -> tuple:
+  return _task_and_size(config) + (_kl_weight(config), _demo_style(config))
+
+
 def effective_dims_table(records: Records) -> str:
-  """Latent records of several tasks, latent sizes, KL weights or seeds: per task, latent size d and KL
-  weight, the number of effective dimensions per training seed, their mean ± std, and the paper's number
-  (which it gives with the KL term only)."""
+  """Latent records of several tasks, latent sizes, KL weights, demonstration styles or seeds: per task,
+  latent size d, KL weight and demonstration style, the number of effective dimensions per training seed,
+  their mean ± std, and the paper's number (which it gives with the KL term only)."""
   groups: dict[tuple, dict] = {}
   for _, r in records:
-    key = _task_and_size(r["config"]) + (_kl_weight(r["config"]),)
-    groups.setdefault(key, {})[r["config"].get("seed")] = len(r["latent"]["effective_dims"])
+    groups.setdefault(_summary_group(r["config"]), {})[r["config"].get("seed")] = len(r["latent"]["effective_dims"])
   rows = []
-  for (task, d, beta), per_seed in sorted(groups.items()):
+  for (task, d, beta, style), per_seed in sorted(groups.items()):
     n = [per_seed[k] for k in sorted(per_seed)]
     spread = f"{np.mean(n):.1f} ± {np.std(n, ddof=1):.1f}" if len(n) > 1 else f"{n[0]}"
     seeds = ", ".join(f"seed {k}: {per_seed[k]}" for k in sorted(per_seed))
     paper = PAPER_EFFECTIVE_DIMS.get(task, "-") if beta else "-"
-    rows.append([task, d, f"{beta:g}", len(n), seeds, spread, paper])
-  header = ["task", "latent size d", "KL weight", "seeds", "effective dimensions (SNR > 0 dB) per seed", "mean ± std",
+    rows.append([task, d, f"{beta:g}", style, len(n), seeds, spread, paper])
+  header = ["task", "latent size d", "KL weight", "demonstrations", "seeds", "effective dimensions (SNR > 0 dB) per seed", "mean ± std",
             "paper"]  # fmt: skip
   return markdown(header, rows)
 

@@ -71,11 +71,13 @@ def test_latent_rows_get_effective_dims_and_paired_exploration(tmp_path):
 def test_latent_sweeps_get_effective_dims_beside_the_papers(tmp_path):
   """Latent records of tasks, sizes, KL weights and seeds get their effective dimensions beside the paper's."""
 
-  def record(task, d, seed, snr, beta=1e-3):
+  def record(task, d, seed, snr, beta=1e-3, style=None):
     ex = dict(success=[1, 0], success_rate=0.5, wilson_low=0.1, wilson_high=0.9, num_rollouts=2, pass_at_k=0.5, k=2,
               jerk=3.0)  # fmt: skip
     config = dict(env=dict(task=task), seed=seed, policy=dict(bypass=dict(latent_dim=d, batch_fraction=1.0, beta=beta)))
     config["rounds"] = dict(round0_dir=f"/runs/seed{seed}/round0")  # where round 0 lives: no setting
+    if style:  # (records from before the demonstration styles have none: scripted)
+      config["data"] = dict(demo_style=style)
     dims = [i for i in range(len(snr)) if snr[i] > 0]
     return dict(kind="latent", commit="abc", config=config, latent=dict(snr_db=snr, effective_dims=dims), explore=ex)
 
@@ -84,20 +86,23 @@ def test_latent_sweeps_get_effective_dims_beside_the_papers(tmp_path):
     "b": ("lift", 16, 1, [1, -1, -1]),
     "c": ("can", 32, 0, [1, 2, 3]),
     "d": ("lift", 16, 0, [1, 1, 1], 0.0),  # the KL ablation: its own row, no paper number
+    "e": ("lift", 16, 1, [1, 1, 1, 1], 1e-3, "varied"),  # another style: its own row
   }.items():
     (tmp_path / f"{name}.json").write_text(json.dumps(record(*args)))
   latent, summary = (part.splitlines() for part in results.table(str(tmp_path)).split("\n\n"))
-  assert [row.endswith("| - |") for row in latent[2:]] == [True, True, True, False]  # d is paired with a
+  assert [row.endswith("| - |") for row in latent[2:]] == [True, True, True, False, False]  # d and e paired
   assert [row.split(" | ")[1] for row in latent[2:]] == [
     "-",
     "-",
     "env.task=can, policy.bypass.latent_dim=32",
     "policy.bypass.beta=0.0",
+    "data.demo_style=varied",
   ]  # (not the seed or round 0's place)
   assert summary[2:] == [
-    "| can | 32 | 0.001 | 1 | seed 0: 3 | 3 | 8 |",
-    "| lift | 16 | 0 | 1 | seed 0: 3 | 3 | - |",
-    "| lift | 16 | 0.001 | 2 | seed 0: 2, seed 1: 1 | 1.5 ± 0.7 | 8 |",
+    "| can | 32 | 0.001 | scripted | 1 | seed 0: 3 | 3 | 8 |",
+    "| lift | 16 | 0 | scripted | 1 | seed 0: 3 | 3 | - |",
+    "| lift | 16 | 0.001 | scripted | 2 | seed 0: 2, seed 1: 1 | 1.5 ± 0.7 | 8 |",
+    "| lift | 16 | 0.001 | varied | 1 | seed 1: 4 | 4 | 8 |",
   ]
 
 
