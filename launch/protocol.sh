@@ -25,6 +25,12 @@
 #   that would not finish within one session, to results/protocol-main/TASK-1/ and TASK-2/.
 # PART rounds-lift: dp, sime, soe and the control on Lift over 3 rounds, eval.seed 33333, one
 #   invocation, to results/protocol-rounds/lift/.
+# PART decompose-lift: which of the picked protocol's differences from the first protocol SOE's round
+#   on Lift answers to, under the `cpu` preset (varied demonstrations, eval.seed 33333), one invocation,
+#   to results/protocol-decompose/lift/: soe and the control as picked (SIME's protocol), with the
+#   re-fit continued instead of from scratch (`refit=continue`, the control's too), soe keeping each
+#   state's first success instead of `train_0.5` (`select=first_success`), and soe and the control under
+#   the first protocol whole (`protocol=continued`: 2 / 16 / 8 horizons too, a round 0 of its own).
 # The parts before main-TASK measure their arms as the `cpu` preset defined them before it took the
 # protocol they picked (SIME's on varied demonstrations): under a config whose control arm has either,
 # their arms would be others than the committed results', so the script refuses and names the commit
@@ -35,7 +41,7 @@
 # environment, e.g. CONFIG=configs/lift.py:smoke PRESET=smoke RESULTS=/tmp/protocol for a quick check.
 set -euo pipefail
 source "$(dirname "$0")/measured_as.sh"
-part=${1:?sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2] or rounds-lift}
+part=${1:?sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2], rounds-lift or decompose-lift}
 seed=${2:?the training seed}
 runs=${3:-/work/runs-protocol}
 config=${CONFIG:-configs/lift.py:cpu}
@@ -61,6 +67,13 @@ if [[ $part =~ ^picked-count-(lift|can|square)-([0-9]+)$ ]]; then
     --workdir="$runs/picked-count-$task-$count" --results="$out/protocol-count/picked-$task-n$count" --progress=false
   exit
 fi
+if [[ $part == decompose-lift ]]; then
+  python -m soe_jax campaign --config="configs/lift.py:${PRESET:-cpu}" --config.seed="$seed" \
+    --config.eval.seed=$eval_seed \
+    --methods=control,soe,control+refit=continue,soe+refit=continue,soe+select=first_success,control+protocol=continued,soe+protocol=continued \
+    --workdir="$runs/decompose-lift" --results="$out/protocol-decompose/lift" --progress=false
+  exit
+fi
 if [[ $part == rounds-lift ]]; then
   python -m soe_jax campaign --config="configs/lift.py:${PRESET:-cpu}" --config.seed="$seed" \
     --config.eval.seed=$eval_seed --config.rounds.num_rounds=3 --methods=control,dp,sime,soe \
@@ -69,8 +82,8 @@ if [[ $part == rounds-lift ]]; then
 fi
 case ${part%-*} in
   sime-count|varied-count|sime|style) ;;
-  *) echo "$part: unknown part (sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2]" \
-       "or rounds-lift)" >&2
+  *) echo "$part: unknown part (sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2]," \
+       "rounds-lift or decompose-lift)" >&2
      exit 2 ;;
 esac
 count=${part##*-}

@@ -39,7 +39,9 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
 - with any method, the control too, each with a round 0 of its own: `range=demonstrations`
   (`policy.action_range`), `frame=chunk_relative` (`policy.action_frame`, relative actions, which
   need `range=demonstrations`) and `style=varied` (`data.demo_style`: demonstrations with human-like
-  styles, every task's demonstrator has them);
+  styles, every task's demonstrator has them); and, sharing round 0, `refit=continue|scratch`
+  (`rounds.refit`: each round's fit continues from the previous round's parameters or starts from
+  fresh ones; `protocol=`, applied after it, sets it too);
 - `protocol=sime`, with any method, the control too: SIME's setup, which the paper's simulation
   experiments follow (`schema.PROTOCOLS`): one observation step, 20-step chunks executed whole,
   `train_0.5` selection, every round re-trained from fresh parameters with round 0's recipe;

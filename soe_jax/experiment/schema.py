@@ -21,8 +21,8 @@ def is_setting(key: str) -> bool:
 
 # What a method's run and its control may differ in: the arm itself (how it explores, what it keeps).
 # (The action range and frame change round 0 too; their arms pair with the control of the default range
-# and frame. The demonstrations' style and the protocol are not here: their arms pair with a control
-# fitted on the same demonstrations under the same protocol.)
+# and frame. The demonstrations' style, the protocol and the re-fit are not here: their arms pair with a
+# control fitted on the same demonstrations under the same protocol and re-fit.)
 ARM = ("method", "explore.", "rounds.new_data", "rounds.select", "rounds.length_cap", "policy.action_range",
        "rounds.demo_fraction", "rounds.aligned_windows", "policy.bypass.beta", "policy.action_frame")  # fmt: skip
 # Arm fields that refit round 0 but leave its base path as it is (the bypass's loss never reaches the
@@ -117,9 +117,10 @@ VARIANTS = {
   "range": ("policy.action_range", "range_"),  # (round 0 too; any method, the control too)
   "frame": ("policy.action_frame", "frame_"),  # (round 0 too; any method, the control too)
   "style": ("data.demo_style", "style_"),  # the demonstrator's (round 0 too; any method, the control too)
+  "refit": ("rounds.refit", "refit_"),  # from fresh parameters or continued (any method, the control too)
 }
 # Variants that go with any method, the control too (the others change how a method explores).
-ANY_METHOD_VARIANTS = ("range", "frame", "style")
+ANY_METHOD_VARIANTS = ("range", "frame", "style", "refit")
 # Experiment protocols (`protocol=NAME`, any method, the control too): name -> the fields it sets, over
 # every other preset's. `sime`: SIME's setup (specs/sime_baseline.md), which the paper's simulation
 # experiments follow: one observation step, a 20-step chunk executed whole, `train_0.5` selection, and

@@ -7,7 +7,7 @@ import pytest
 from configs import can as can_config
 from configs import lift as lift_config
 from configs import square as square_config
-from soe_jax.experiment import rundir
+from soe_jax.experiment import rundir, validation
 from soe_jax.runtime import configfile
 
 
@@ -21,7 +21,7 @@ def test_method_presets_choose_the_strategy():
     lift_config.get_config("soe,dp")
   with pytest.raises(
     ValueError,
-    match="known presets: smoke, cpu, head, image, expert_data, protocol, select, length_cap, alpha, hold, beta, demo_fraction, aligned, range, frame, style, dp,",
+    match="known presets: smoke, cpu, head, image, expert_data, protocol, select, length_cap, alpha, hold, beta, demo_fraction, aligned, range, frame, style, refit, dp,",
   ):
     lift_config.get_config("fast")
   with pytest.raises(ValueError, match="expert_data goes with an exploring method"):
@@ -120,6 +120,24 @@ def test_a_protocol_names_the_arm_only_where_it_changes_the_presets_fields():
   assert (fields(plain), fields(continued)) == ((1, 20, 20, "sime", "scratch"), (2, 16, 8, "first_success", "continue"))
   with pytest.raises(ValueError, match="unknown protocol 'paper'; known protocols: sime, continued"):
     lift_config.get_config("cpu,soe,protocol=paper")
+
+
+def test_the_refit_variant_names_any_arm_and_shares_round_0():
+  """`refit=continue` under `cpu` (SIME's from-scratch re-fit) names the arm, the control's too, and keeps
+  round 0; a value the loop does not know is refused by the config's check."""
+  for method in ("control", "soe"):
+    plain, continued = lift_config.get_config(f"cpu,{method}"), lift_config.get_config(f"cpu,{method},refit=continue")
+    assert (continued.method, continued.rounds.refit, plain.rounds.refit) == (
+      f"{method}-refit_continue",
+      "continue",
+      "scratch",
+    )
+    assert rundir.round0_key(continued) == rundir.round0_key(plain)
+  assert lift_config.get_config("cpu,soe,refit=scratch").method == "soe"  # the preset's own: no other arm
+  both = lift_config.get_config("cpu,soe,refit=continue,protocol=continued")  # each names what it changed
+  assert both.method == "soe-refit_continue-protocol_continued"
+  with pytest.raises(ValueError, match="unknown re-fit mode 'warm'; known: continue, scratch"):
+    validation.check(lift_config.get_config("cpu,soe,refit=warm"))
 
 
 def test_the_cpu_preset_is_the_protocol_the_rule_picked():
