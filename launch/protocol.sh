@@ -29,8 +29,9 @@
 #   on Lift answers to, under the `cpu` preset (varied demonstrations, eval.seed 33333), one invocation,
 #   to results/protocol-decompose/lift/: soe and the control as picked (SIME's protocol), with the
 #   re-fit continued instead of from scratch (`refit=continue`, the control's too), soe keeping each
-#   state's first success instead of `train_0.5` (`select=first_success`), and soe and the control under
-#   the first protocol whole (`protocol=continued`: 2 / 16 / 8 horizons too, a round 0 of its own).
+#   state's first success instead of `train_0.5` (`select=first_success`) with either re-fit, and soe and
+#   the control under the first protocol whole (`protocol=continued`: its 2 / 16 / 8 horizons the one
+#   difference from `select=first_success,refit=continue`; a round 0 of its own).
 # The parts before main-TASK measure their arms as the `cpu` preset defined them before it took the
 # protocol they picked (SIME's on varied demonstrations): under a config whose control arm has either,
 # their arms would be others than the committed results', so the script refuses and names the commit
@@ -68,9 +69,11 @@ if [[ $part =~ ^picked-count-(lift|can|square)-([0-9]+)$ ]]; then
   exit
 fi
 if [[ $part == decompose-lift ]]; then
+  arms=control,soe,control+refit=continue,soe+refit=continue
+  arms+=,soe+select=first_success,soe+select=first_success+refit=continue
+  arms+=,control+protocol=continued,soe+protocol=continued
   python -m soe_jax campaign --config="configs/lift.py:${PRESET:-cpu}" --config.seed="$seed" \
-    --config.eval.seed=$eval_seed \
-    --methods=control,soe,control+refit=continue,soe+refit=continue,soe+select=first_success,control+protocol=continued,soe+protocol=continued \
+    --config.eval.seed=$eval_seed --methods="$arms" \
     --workdir="$runs/decompose-lift" --results="$out/protocol-decompose/lift" --progress=false
   exit
 fi

@@ -168,7 +168,8 @@ def test_the_main_campaigns_parts_run_every_arm_with_its_control_on_new_evaluati
 
 def test_the_decomposition_pairs_each_of_the_picked_protocols_differences_with_its_control(parsed):
   """soe and the control as picked, with the re-fit continued (both), soe with the first protocol's
-  selection, and both under the first protocol whole: each soe arm has a control of its re-fit and horizons."""
+  selection under either re-fit, and both under the first protocol whole: each soe arm has a control of
+  its re-fit and horizons, and each of the three differences is one step between two soe arms."""
   ((argv, configs),) = parsed("protocol.sh", "decompose-lift", "1", "/tmp/runs-protocol")
   arms = {c.method: (c.rounds.refit, c.rounds.select, c.policy.horizon) for c in configs.values()}
   assert arms == {
@@ -177,6 +178,7 @@ def test_the_decomposition_pairs_each_of_the_picked_protocols_differences_with_i
     "control-refit_continue": ("continue", "sime", 20),
     "soe-refit_continue": ("continue", "sime", 20),
     "soe-select_first_success": ("scratch", "first_success", 20),
+    "soe-select_first_success-refit_continue": ("continue", "first_success", 20),
     "control-protocol_continued": ("continue", "first_success", 16),
     "soe-protocol_continued": ("continue", "first_success", 16),
   }
