@@ -213,8 +213,8 @@ def effective_dims_table(records: Records) -> str:
     seeds = ", ".join(f"seed {k}: {per_seed[k]}" for k in sorted(per_seed))
     paper = PAPER_EFFECTIVE_DIMS.get(task, "-") if beta else "-"
     rows.append([task, d, f"{beta:g}", style, len(n), seeds, spread, paper])
-  header = ["task", "latent size d", "KL weight", "demonstrations", "seeds", "effective dimensions (SNR > 0 dB) per seed", "mean ± std",
-            "paper"]  # fmt: skip
+  header = ["task", "latent size d", "KL weight", "demonstrations", "seeds",
+            "effective dimensions (SNR > 0 dB) per seed", "mean ± std", "paper"]  # fmt: skip
   return markdown(header, rows)
 
 
