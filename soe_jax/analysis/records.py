@@ -151,7 +151,7 @@ def _kl_weight(config: dict) -> float:
 
 
 def _demo_style(config: dict) -> str:
-  return config.get("data", {}).get("demo_style", "scripted")  # (records from before the styles: scripted)
+  return config.get("data", {}).get("demo_style", schema.ADDED["data.demo_style"])  # (older records lack it)
 
 
 def latent_table(records: Records) -> str:
