@@ -68,9 +68,8 @@ def test_quaternions_are_continuous_along_scripted_episodes(task, jitted_env):
   assert hand[:, : int(batch["length"].min())].min() > 0.5
 
 
-@pytest.mark.parametrize(
-  "task", [t if t == "lift" else pytest.param(t, marks=pytest.mark.slow) for t in expert_names()]
-)
+@pytest.mark.slow
+@pytest.mark.parametrize("task", expert_names())
 def test_quaternions_are_continuous_along_policy_rollouts(task, jitted_env, task_env):
   env = task_env(task, episode_length=20)  # lift's: the rollout tests' environment and programs
   config = presets.apply_presets(presets.base_config(task, 4), "smoke")
@@ -96,6 +95,7 @@ def test_quaternions_are_continuous_along_policy_rollouts(task, jitted_env, task
   assert (jump < 0.2).mean() > 0.95
 
 
+@pytest.mark.slow
 def test_other_quaternion_signs_read_back_in_tasks_convention(tmp_path, jitted_env):
   """A file with other quaternion signs reads back in the task's sign convention."""
   env, batch = _demos("square", jitted_env)

@@ -283,6 +283,7 @@ print(sorted({{m.split(".")[0] for m in sys.modules}} & {{"mujoco", "brax"}}))
 """
 
 
+@pytest.mark.slow
 def test_the_toy_tests_import_no_mujoco(tmp_path):
   """Every module the toy-task tests import, and a one-round toy run, leave MuJoCo and brax unloaded."""
   lines = [line for name in TOY_TESTS for line in _import_lines(HERE / name)]

@@ -74,6 +74,7 @@ def test_records_history_episode_length_and_slices(task_env):
   assert not np.allclose(out["actions"][:, 7], out["actions"][:, 8])
 
 
+@pytest.mark.slow
 def test_the_demonstrator_in_the_engine_keeps_its_success_rate(task_env):
   """The scripted demonstrator, run through the engine as a policy, reproduces its success rate."""
   env, policy, agent = _setup(task_env("lift"))

@@ -3,6 +3,7 @@
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from soe_jax.policies.nets import resnet
 
@@ -26,6 +27,7 @@ def test_random_crop_in_training_centre_crop_in_evaluation():
   assert len(offsets) > 1  # independent per image
 
 
+@pytest.mark.slow
 def test_image_encoder_concatenates_cameras_and_lowdim_per_frame():
   enc = resnet.ImageEncoder(cameras=("agentview_image",), crop_size=24)
   obs = {"images": {"agentview_image": jnp.zeros((2, 2, 28, 28, 3))}, "lowdim": jnp.ones((2, 2, 9))}

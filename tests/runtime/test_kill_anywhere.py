@@ -55,6 +55,7 @@ def test_every_file_a_job_leaves_has_a_write_site_with_every_kill_point(referenc
   assert {s for s, whens in reached.items() if whens == set(faults.WHEN)} == expected
 
 
+@pytest.mark.slow
 def test_a_run_killed_at_each_kind_of_write_finishes_as_if_never_killed(reference, tmp_path):
   points, expected, _ = reference("run")
   kills = [ka.Kill(site, "during") for site in ONE_PER_KIND]
