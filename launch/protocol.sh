@@ -31,7 +31,9 @@
 #   re-fit continued instead of from scratch (`refit=continue`, the control's too), soe keeping each
 #   state's first success instead of `train_0.5` (`select=first_success`) with either re-fit, and soe and
 #   the control under the first protocol whole (`protocol=continued`: its 2 / 16 / 8 horizons the one
-#   difference from `select=first_success,refit=continue`; a round 0 of its own).
+#   difference from `select=first_success,refit=continue`; a round 0 of its own). Where a seed does not
+#   fit a session, decompose-lift-1 runs the six arms on the picked round 0 and decompose-lift-2 the first
+#   protocol's two (each its own round 0 and control) into the same results.
 # The parts before main-TASK measure their arms as the `cpu` preset defined them before it took the
 # protocol they picked (SIME's on varied demonstrations): under a config whose control arm has either,
 # their arms would be others than the committed results', so the script refuses and names the commit
@@ -42,7 +44,7 @@
 # environment, e.g. CONFIG=configs/lift.py:smoke PRESET=smoke RESULTS=/tmp/protocol for a quick check.
 set -euo pipefail
 source "$(dirname "$0")/measured_as.sh"
-part=${1:?sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2], rounds-lift or decompose-lift}
+part=${1:?sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2], rounds-lift or decompose-lift[-1|-2]}
 seed=${2:?the training seed}
 runs=${3:-/work/runs-protocol}
 config=${CONFIG:-configs/lift.py:cpu}
@@ -68,13 +70,17 @@ if [[ $part =~ ^picked-count-(lift|can|square)-([0-9]+)$ ]]; then
     --workdir="$runs/picked-count-$task-$count" --results="$out/protocol-count/picked-$task-n$count" --progress=false
   exit
 fi
-if [[ $part == decompose-lift ]]; then
-  arms=control,soe,control+refit=continue,soe+refit=continue
-  arms+=,soe+select=first_success,soe+select=first_success+refit=continue
-  arms+=,control+protocol=continued,soe+protocol=continued
+if [[ $part =~ ^decompose-lift(-([12]))?$ ]]; then
+  half=${BASH_REMATCH[2]}
+  picked=control,soe,control+refit=continue,soe+refit=continue
+  picked+=,soe+select=first_success,soe+select=first_success+refit=continue
+  first=control+protocol=continued,soe+protocol=continued
+  arms=$picked,$first
+  [[ $half == 1 ]] && arms=$picked
+  [[ $half == 2 ]] && arms=$first
   python -m soe_jax campaign --config="configs/lift.py:${PRESET:-cpu}" --config.seed="$seed" \
     --config.eval.seed=$eval_seed --methods="$arms" \
-    --workdir="$runs/decompose-lift" --results="$out/protocol-decompose/lift" --progress=false
+    --workdir="$runs/$part" --results="$out/protocol-decompose/lift" --progress=false
   exit
 fi
 if [[ $part == rounds-lift ]]; then
@@ -86,7 +92,7 @@ fi
 case ${part%-*} in
   sime-count|varied-count|sime|style) ;;
   *) echo "$part: unknown part (sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2]," \
-       "rounds-lift or decompose-lift)" >&2
+       "rounds-lift or decompose-lift[-1|-2])" >&2
      exit 2 ;;
 esac
 count=${part##*-}

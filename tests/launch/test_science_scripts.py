@@ -166,24 +166,39 @@ def test_the_main_campaigns_parts_run_every_arm_with_its_control_on_new_evaluati
   assert f"--workdir=/tmp/runs-protocol/{part.removeprefix('main-')}" in argv
 
 
+# The decomposition's arms: (re-fit, selection, prediction horizon).
+DECOMPOSITION = {
+  "control": ("scratch", "sime", 20),
+  "soe": ("scratch", "sime", 20),
+  "control-refit_continue": ("continue", "sime", 20),
+  "soe-refit_continue": ("continue", "sime", 20),
+  "soe-select_first_success": ("scratch", "first_success", 20),
+  "soe-select_first_success-refit_continue": ("continue", "first_success", 20),
+  "control-protocol_continued": ("continue", "first_success", 16),
+  "soe-protocol_continued": ("continue", "first_success", 16),
+}
+
+
 def test_the_decomposition_pairs_each_of_the_picked_protocols_differences_with_its_control(parsed):
   """soe and the control as picked, with the re-fit continued (both), soe with the first protocol's
   selection under either re-fit, and both under the first protocol whole: each soe arm has a control of
   its re-fit and horizons, and each of the three differences is one step between two soe arms."""
   ((argv, configs),) = parsed("protocol.sh", "decompose-lift", "1", "/tmp/runs-protocol")
   arms = {c.method: (c.rounds.refit, c.rounds.select, c.policy.horizon) for c in configs.values()}
-  assert arms == {
-    "control": ("scratch", "sime", 20),
-    "soe": ("scratch", "sime", 20),
-    "control-refit_continue": ("continue", "sime", 20),
-    "soe-refit_continue": ("continue", "sime", 20),
-    "soe-select_first_success": ("scratch", "first_success", 20),
-    "soe-select_first_success-refit_continue": ("continue", "first_success", 20),
-    "control-protocol_continued": ("continue", "first_success", 16),
-    "soe-protocol_continued": ("continue", "first_success", 16),
-  }
+  assert arms == DECOMPOSITION
   assert all(c.data.demo_style == "varied" and c.eval.seed == 33333 and c.seed == 1 for c in configs.values())
   assert "--workdir=/tmp/runs-protocol/decompose-lift" in argv
+
+
+@pytest.mark.parametrize("half, first_protocol", [("1", False), ("2", True)])
+def test_the_decompositions_halves_split_its_arms_by_round_0(parsed, half, first_protocol):
+  """A seed that does not fit a session splits into the six arms on the picked round 0 and the first
+  protocol's two (each half with its own round 0 and control), written beside each other."""
+  ((argv, configs),) = parsed("protocol.sh", f"decompose-lift-{half}", "1", "/tmp/runs-protocol")
+  want = {m: a for m, a in DECOMPOSITION.items() if m.endswith("protocol_continued") == first_protocol}
+  assert {c.method: (c.rounds.refit, c.rounds.select, c.policy.horizon) for c in configs.values()} == want
+  assert f"--workdir=/tmp/runs-protocol/decompose-lift-{half}" in argv
+  assert any(a.startswith("--results=") and a.endswith("/protocol-decompose/lift") for a in argv)
 
 
 @pytest.mark.parametrize(
@@ -192,6 +207,7 @@ def test_the_decomposition_pairs_each_of_the_picked_protocols_differences_with_i
     ("protocol.sh", ["bogus-3", "0", "{runs}"], "unknown part"),
     ("protocol.sh", ["sime-x", "0", "{runs}"], "demonstration count"),
     ("protocol.sh", ["main-transport", "0", "{runs}"], "unknown part"),
+    ("protocol.sh", ["decompose-lift-3", "0", "{runs}"], "decompose-lift[-1|-2]"),
     ("why_own_successes.sh", ["1", "{runs}", "e"], "known: a, b, c, d, square, all"),
     ("why_own_successes.sh", ["1", "{runs}", "d"], "needs BETA"),
     ("why_own_successes.sh", ["1", "{runs}", "square"], "needs BETA"),
