@@ -34,6 +34,9 @@
 #   difference from `select=first_success,refit=continue`; a round 0 of its own). Where a seed does not
 #   fit a session, decompose-lift-1 runs the six arms on the picked round 0 and decompose-lift-2 the first
 #   protocol's two (each its own round 0 and control) into the same results.
+# PART decompose-lift-n3: the first protocol's two arms on 3 varied demonstrations (the count the
+#   scripted-against-varied campaign had; its other difference from decompose-lift-2 is the evaluation
+#   states) to results/protocol-decompose/lift-n3/.
 # The parts before main-TASK measure their arms as the `cpu` preset defined them before it took the
 # protocol they picked (SIME's on varied demonstrations): under a config whose control arm has either,
 # their arms would be others than the committed results', so the script refuses and names the commit
@@ -44,7 +47,7 @@
 # environment, e.g. CONFIG=configs/lift.py:smoke PRESET=smoke RESULTS=/tmp/protocol for a quick check.
 set -euo pipefail
 source "$(dirname "$0")/measured_as.sh"
-part=${1:?sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2], rounds-lift or decompose-lift[-1|-2]}
+part=${1:?sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2], rounds-lift or decompose-lift[-1|-2|-n3]}
 seed=${2:?the training seed}
 runs=${3:-/work/runs-protocol}
 config=${CONFIG:-configs/lift.py:cpu}
@@ -83,6 +86,13 @@ if [[ $part =~ ^decompose-lift(-([12]))?$ ]]; then
     --workdir="$runs/$part" --results="$out/protocol-decompose/lift" --progress=false
   exit
 fi
+if [[ $part == decompose-lift-n3 ]]; then
+  python -m soe_jax campaign --config="configs/lift.py:${PRESET:-cpu}" --config.seed="$seed" \
+    --config.eval.seed=$eval_seed --config.data.num_demos=3 \
+    --methods=control+protocol=continued,soe+protocol=continued \
+    --workdir="$runs/$part" --results="$out/protocol-decompose/lift-n3" --progress=false
+  exit
+fi
 if [[ $part == rounds-lift ]]; then
   python -m soe_jax campaign --config="configs/lift.py:${PRESET:-cpu}" --config.seed="$seed" \
     --config.eval.seed=$eval_seed --config.rounds.num_rounds=3 --methods=control,dp,sime,soe \
@@ -92,7 +102,7 @@ fi
 case ${part%-*} in
   sime-count|varied-count|sime|style) ;;
   *) echo "$part: unknown part (sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2]," \
-       "rounds-lift or decompose-lift[-1|-2])" >&2
+       "rounds-lift or decompose-lift[-1|-2|-n3])" >&2
      exit 2 ;;
 esac
 count=${part##*-}

@@ -201,13 +201,23 @@ def test_the_decompositions_halves_split_its_arms_by_round_0(parsed, half, first
   assert any(a.startswith("--results=") and a.endswith("/protocol-decompose/lift") for a in argv)
 
 
+def test_the_decompositions_count_arms_are_the_first_protocol_on_3_varied_demonstrations(parsed):
+  """The first protocol's two arms on the scripted-against-varied campaign's count, on the main
+  campaign's evaluation states, in a folder of their own."""
+  ((argv, configs),) = parsed("protocol.sh", "decompose-lift-n3", "1", "/tmp/runs-protocol")
+  want = {m: a for m, a in DECOMPOSITION.items() if m.endswith("protocol_continued")}
+  assert {c.method: (c.rounds.refit, c.rounds.select, c.policy.horizon) for c in configs.values()} == want
+  assert {(c.data.num_demos, c.data.demo_style, c.eval.seed) for c in configs.values()} == {(3, "varied", 33333)}
+  assert any(a.startswith("--results=") and a.endswith("/protocol-decompose/lift-n3") for a in argv)
+
+
 @pytest.mark.parametrize(
   "script, args, says",
   [
     ("protocol.sh", ["bogus-3", "0", "{runs}"], "unknown part"),
     ("protocol.sh", ["sime-x", "0", "{runs}"], "demonstration count"),
     ("protocol.sh", ["main-transport", "0", "{runs}"], "unknown part"),
-    ("protocol.sh", ["decompose-lift-3", "0", "{runs}"], "decompose-lift[-1|-2]"),
+    ("protocol.sh", ["decompose-lift-3", "0", "{runs}"], "decompose-lift[-1|-2|-n3]"),
     ("why_own_successes.sh", ["1", "{runs}", "e"], "known: a, b, c, d, square, all"),
     ("why_own_successes.sh", ["1", "{runs}", "d"], "needs BETA"),
     ("why_own_successes.sh", ["1", "{runs}", "square"], "needs BETA"),
