@@ -83,6 +83,7 @@ def test_a_command_is_named_as_it_was_typed():
   assert provenance.command(["launch/gpu_physics.py", "--budget=5"]) == "python launch/gpu_physics.py --budget=5"
 
 
+@pytest.mark.slow
 def test_bench_serve_times_the_server_against_in_process_and_tables_its_record(tmp_path, capsys):
   from soe_jax.analysis import results
 

@@ -47,9 +47,8 @@ def _changed_mask(a: np.ndarray, b: np.ndarray) -> np.ndarray:
   return np.abs(a.astype(int) - b.astype(int)).max(-1) > 24
 
 
-@pytest.mark.parametrize(
-  "task", ["lift", pytest.param("can", marks=pytest.mark.slow), pytest.param("square", marks=pytest.mark.slow)]
-)
+@pytest.mark.slow
+@pytest.mark.parametrize("task", ["lift", "can", "square"])
 def test_wrist_camera_sees_the_object_agent_view_sees_the_arm(task):
   """The wrist camera sees the object from above, and the agent view sees the arm."""
   env = make_env(task, obs_mode="image", backend="mujoco")

@@ -1,5 +1,7 @@
 """The run's console progress: round r of R, elapsed time, and the time left at the measured pace."""
 
+import pytest
+
 from soe_jax.experiment import runlog
 
 
@@ -15,6 +17,7 @@ def test_round_clock_estimates_rounds_left_from_the_rounds_run(capsys, monkeypat
   assert lines[3] == "== round 3 of 3 (elapsed 13m40s, about 1m50s left)"  # mean of 100 s and 120 s
 
 
+@pytest.mark.slow
 def test_wandb_mirrors_each_phase_and_resumes_an_interrupted_run(tmp_path, monkeypatch):
   """wandb mirrors each phase offline, and an interrupted run resumes the same wandb run."""
   import glob

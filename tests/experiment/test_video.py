@@ -33,6 +33,7 @@ def test_a_run_draws_first_episodes_and_the_report_links_them(smoke_run):
   assert "- round 1 explore: [0](videos/round_1_explore_0.mp4) " in report
 
 
+@pytest.mark.slow
 def test_video_command_redraws_a_round_and_names_its_rounds(smoke_run, tmp_path):
   """`python -m soe_jax video` draws a round again, and names the rounds it has episodes of when asked for another."""
   _, _, workdir, _ = smoke_run

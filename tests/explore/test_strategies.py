@@ -84,6 +84,7 @@ def test_sime_on_images_puts_one_scale_on_the_whole_conditioning():
   np.testing.assert_allclose(noise.std(0), np.full(policy.cond_dim, 0.5), rtol=0.05)
 
 
+@pytest.mark.slow
 def test_soe_alpha_zero_is_the_mean_path_and_alpha_spreads():
   policy = _policy()
   agent = _agent(policy)
@@ -107,6 +108,7 @@ def test_soe_alpha_zero_is_the_mean_path_and_alpha_spreads():
   assert 0 < spread[0] < spread[1] < spread[2]
 
 
+@pytest.mark.slow
 def test_soe_hold_keeps_the_latent_noise_for_that_many_decisions():
   policy = _policy()
   agent = _agent(policy)
@@ -149,6 +151,7 @@ def test_dp_and_sime_use_the_base_path():
 POSITIONS = lambda a: a[..., None, :3]  # one arm, its position first
 
 
+@pytest.mark.slow
 def test_steering_candidates_vary_one_dimension_and_are_distinct():
   policy = _policy()
   agent = _agent(policy)

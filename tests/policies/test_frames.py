@@ -5,6 +5,7 @@ simulator-free pose helpers agree with the simulator's rotations."""
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from soe_jax.data import poses
 from soe_jax.data.spec import PolicySpec
@@ -33,6 +34,7 @@ def _history_and_chunk(spec, key, b=16, to=2, t=16):
   return layout, obs, actions
 
 
+@pytest.mark.slow
 def test_relative_and_absolute_invert_each_other_on_random_poses_of_two_arms():
   spec = PolicySpec.from_dict(registry.task_spec("transport", "absolute"))
   with jax.enable_x64(True):  # the conversions' own error, apart from float32's rounding

@@ -88,6 +88,7 @@ def fitted(tmp_path_factory):
   return workdir
 
 
+@pytest.mark.slow
 def test_the_simulator_as_the_robot(fitted, tmp_path):
   workdir = str(tmp_path / "run")
   shutil.copytree(fitted, workdir)

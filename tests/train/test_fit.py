@@ -67,6 +67,7 @@ print(json.dumps(np.asarray(loaded.agent.act(obs, jax.random.PRNGKey(5))).tolist
 """
 
 
+@pytest.mark.slow
 def test_checkpoint_loads_without_task_registry_to_same_samples(tmp_path):
   """A checkpoint loads without the task registry and gives identical samples."""
   config, policy, tx, state, buf = _setup()  # (its fresh parameters: what is saved, not how it was fitted)
