@@ -73,24 +73,19 @@ if [[ $part =~ ^picked-count-(lift|can|square)-([0-9]+)$ ]]; then
     --workdir="$runs/picked-count-$task-$count" --results="$out/protocol-count/picked-$task-n$count" --progress=false
   exit
 fi
-if [[ $part =~ ^decompose-lift(-([12]))?$ ]]; then
-  half=${BASH_REMATCH[2]}
+if [[ $part =~ ^decompose-lift(-(1|2|n3))?$ ]]; then
   picked=control,soe,control+refit=continue,soe+refit=continue
   picked+=,soe+select=first_success,soe+select=first_success+refit=continue
   first=control+protocol=continued,soe+protocol=continued
-  arms=$picked,$first
-  [[ $half == 1 ]] && arms=$picked
-  [[ $half == 2 ]] && arms=$first
+  arms=$picked,$first folder=lift demos=()
+  case ${BASH_REMATCH[2]} in
+    1) arms=$picked ;;
+    2) arms=$first ;;
+    n3) arms=$first folder=lift-n3 demos=(--config.data.num_demos=3) ;;
+  esac
   python -m soe_jax campaign --config="configs/lift.py:${PRESET:-cpu}" --config.seed="$seed" \
-    --config.eval.seed=$eval_seed --methods="$arms" \
-    --workdir="$runs/$part" --results="$out/protocol-decompose/lift" --progress=false
-  exit
-fi
-if [[ $part == decompose-lift-n3 ]]; then
-  python -m soe_jax campaign --config="configs/lift.py:${PRESET:-cpu}" --config.seed="$seed" \
-    --config.eval.seed=$eval_seed --config.data.num_demos=3 \
-    --methods=control+protocol=continued,soe+protocol=continued \
-    --workdir="$runs/$part" --results="$out/protocol-decompose/lift-n3" --progress=false
+    --config.eval.seed=$eval_seed "${demos[@]}" --methods="$arms" \
+    --workdir="$runs/$part" --results="$out/protocol-decompose/$folder" --progress=false
   exit
 fi
 if [[ $part == rounds-lift ]]; then

@@ -179,13 +179,16 @@ DECOMPOSITION = {
 }
 
 
+def _arms(configs: dict) -> dict:
+  return {c.method: (c.rounds.refit, c.rounds.select, c.policy.horizon) for c in configs.values()}
+
+
 def test_the_decomposition_pairs_each_of_the_picked_protocols_differences_with_its_control(parsed):
   """soe and the control as picked, with the re-fit continued (both), soe with the first protocol's
   selection under either re-fit, and both under the first protocol whole: each soe arm has a control of
   its re-fit and horizons, and each of the three differences is one step between two soe arms."""
   ((argv, configs),) = parsed("protocol.sh", "decompose-lift", "1", "/tmp/runs-protocol")
-  arms = {c.method: (c.rounds.refit, c.rounds.select, c.policy.horizon) for c in configs.values()}
-  assert arms == DECOMPOSITION
+  assert _arms(configs) == DECOMPOSITION
   assert all(c.data.demo_style == "varied" and c.eval.seed == 33333 and c.seed == 1 for c in configs.values())
   assert "--workdir=/tmp/runs-protocol/decompose-lift" in argv
 
@@ -196,7 +199,7 @@ def test_the_decompositions_halves_split_its_arms_by_round_0(parsed, half, first
   protocol's two (each half with its own round 0 and control), written beside each other."""
   ((argv, configs),) = parsed("protocol.sh", f"decompose-lift-{half}", "1", "/tmp/runs-protocol")
   want = {m: a for m, a in DECOMPOSITION.items() if m.endswith("protocol_continued") == first_protocol}
-  assert {c.method: (c.rounds.refit, c.rounds.select, c.policy.horizon) for c in configs.values()} == want
+  assert _arms(configs) == want
   assert f"--workdir=/tmp/runs-protocol/decompose-lift-{half}" in argv
   assert any(a.startswith("--results=") and a.endswith("/protocol-decompose/lift") for a in argv)
 
@@ -206,7 +209,7 @@ def test_the_decompositions_count_arms_are_the_first_protocol_on_3_varied_demons
   campaign's evaluation states, in a folder of their own."""
   ((argv, configs),) = parsed("protocol.sh", "decompose-lift-n3", "1", "/tmp/runs-protocol")
   want = {m: a for m, a in DECOMPOSITION.items() if m.endswith("protocol_continued")}
-  assert {c.method: (c.rounds.refit, c.rounds.select, c.policy.horizon) for c in configs.values()} == want
+  assert _arms(configs) == want
   assert {(c.data.num_demos, c.data.demo_style, c.eval.seed) for c in configs.values()} == {(3, "varied", 33333)}
   assert any(a.startswith("--results=") and a.endswith("/protocol-decompose/lift-n3") for a in argv)
 
