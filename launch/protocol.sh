@@ -37,6 +37,8 @@
 # PART decompose-lift-n3: the first protocol's two arms on 3 varied demonstrations (the count the
 #   scripted-against-varied campaign had; its other difference from decompose-lift-2 is the evaluation
 #   states) to results/protocol-decompose/lift-n3/.
+# PART decompose-lift-n3-picked: soe and the control as picked on those 3 demonstrations and states,
+#   beside them in results/protocol-decompose/lift-n3/: the protocols compared at the weaker base.
 # The parts before main-TASK measure their arms as the `cpu` preset defined them before it took the
 # protocol they picked (SIME's on varied demonstrations): under a config whose control arm has either,
 # their arms would be others than the committed results', so the script refuses and names the commit
@@ -47,7 +49,7 @@
 # environment, e.g. CONFIG=configs/lift.py:smoke PRESET=smoke RESULTS=/tmp/protocol for a quick check.
 set -euo pipefail
 source "$(dirname "$0")/measured_as.sh"
-part=${1:?sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2], rounds-lift or decompose-lift[-1|-2|-n3]}
+part=${1:?sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2], rounds-lift or decompose-lift[-1|-2|-n3|-n3-picked]}
 seed=${2:?the training seed}
 runs=${3:-/work/runs-protocol}
 config=${CONFIG:-configs/lift.py:cpu}
@@ -73,7 +75,7 @@ if [[ $part =~ ^picked-count-(lift|can|square)-([0-9]+)$ ]]; then
     --workdir="$runs/picked-count-$task-$count" --results="$out/protocol-count/picked-$task-n$count" --progress=false
   exit
 fi
-if [[ $part =~ ^decompose-lift(-(1|2|n3))?$ ]]; then
+if [[ $part =~ ^decompose-lift(-(1|2|n3|n3-picked))?$ ]]; then
   picked=control,soe,control+refit=continue,soe+refit=continue
   picked+=,soe+select=first_success,soe+select=first_success+refit=continue
   first=control+protocol=continued,soe+protocol=continued
@@ -82,6 +84,7 @@ if [[ $part =~ ^decompose-lift(-(1|2|n3))?$ ]]; then
     1) arms=$picked ;;
     2) arms=$first ;;
     n3) arms=$first folder=lift-n3 demos=(--config.data.num_demos=3) ;;
+    n3-picked) arms=control,soe folder=lift-n3 demos=(--config.data.num_demos=3) ;;
   esac
   python -m soe_jax campaign --config="configs/lift.py:${PRESET:-cpu}" --config.seed="$seed" \
     --config.eval.seed=$eval_seed "${demos[@]}" --methods="$arms" \
@@ -97,7 +100,7 @@ fi
 case ${part%-*} in
   sime-count|varied-count|sime|style) ;;
   *) echo "$part: unknown part (sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2]," \
-       "rounds-lift or decompose-lift[-1|-2|-n3])" >&2
+       "rounds-lift or decompose-lift[-1|-2|-n3|-n3-picked])" >&2
      exit 2 ;;
 esac
 count=${part##*-}

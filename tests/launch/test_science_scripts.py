@@ -214,13 +214,23 @@ def test_the_decompositions_count_arms_are_the_first_protocol_on_3_varied_demons
   assert any(a.startswith("--results=") and a.endswith("/protocol-decompose/lift-n3") for a in argv)
 
 
+def test_the_decompositions_picked_count_arms_sit_beside_the_first_protocols(parsed):
+  """soe and the control as picked, on the same 3 varied demonstrations and states, into the same folder
+  (their arm names differ from the first protocol's, so the two pairs do not mix)."""
+  ((argv, configs),) = parsed("protocol.sh", "decompose-lift-n3-picked", "1", "/tmp/runs-protocol")
+  assert _arms(configs) == {m: a for m, a in DECOMPOSITION.items() if m in ("soe", "control")}
+  assert {(c.data.num_demos, c.data.demo_style, c.eval.seed) for c in configs.values()} == {(3, "varied", 33333)}
+  assert any(a.startswith("--results=") and a.endswith("/protocol-decompose/lift-n3") for a in argv)
+  assert "--workdir=/tmp/runs-protocol/decompose-lift-n3-picked" in argv
+
+
 @pytest.mark.parametrize(
   "script, args, says",
   [
     ("protocol.sh", ["bogus-3", "0", "{runs}"], "unknown part"),
     ("protocol.sh", ["sime-x", "0", "{runs}"], "demonstration count"),
     ("protocol.sh", ["main-transport", "0", "{runs}"], "unknown part"),
-    ("protocol.sh", ["decompose-lift-3", "0", "{runs}"], "decompose-lift[-1|-2|-n3]"),
+    ("protocol.sh", ["decompose-lift-3", "0", "{runs}"], "decompose-lift[-1|-2|-n3|-n3-picked]"),
     ("why_own_successes.sh", ["1", "{runs}", "e"], "known: a, b, c, d, square, all"),
     ("why_own_successes.sh", ["1", "{runs}", "d"], "needs BETA"),
     ("why_own_successes.sh", ["1", "{runs}", "square"], "needs BETA"),
