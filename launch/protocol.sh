@@ -49,7 +49,8 @@
 # environment, e.g. CONFIG=configs/lift.py:smoke PRESET=smoke RESULTS=/tmp/protocol for a quick check.
 set -euo pipefail
 source "$(dirname "$0")/measured_as.sh"
-part=${1:?sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2], rounds-lift or decompose-lift[-1|-2|-n3|-n3-picked]}
+parts="sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2], rounds-lift or decompose-lift[-1|-2|-n3|-n3-picked]"
+part=${1:?$parts}
 seed=${2:?the training seed}
 runs=${3:-/work/runs-protocol}
 config=${CONFIG:-configs/lift.py:cpu}
@@ -99,8 +100,7 @@ if [[ $part == rounds-lift ]]; then
 fi
 case ${part%-*} in
   sime-count|varied-count|sime|style) ;;
-  *) echo "$part: unknown part (sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2]," \
-       "rounds-lift or decompose-lift[-1|-2|-n3|-n3-picked])" >&2
+  *) echo "$part: unknown part ($parts)" >&2
      exit 2 ;;
 esac
 count=${part##*-}
