@@ -222,7 +222,7 @@ def test_the_papers_claims_are_tested_on_the_paired_runs(tmp_path):
   )
   assert jerk.startswith("SIME's jerk far above DP's and SOE's: reproduced; SIME / DP 3.31x (p = 0.0065)")
   assert "SOE / DP 0.99x (p = 0.8" in jerk
-  one_seed = claims.jerk_claim(claims._by_method(aggregate.rows(aggregate.find_runs(str(tmp_path / "s0"))), "lift"))
+  *_, one_seed = claims.claims(aggregate.rows(aggregate.find_runs(str(tmp_path / "s0"))), "lift")
   assert str(one_seed).startswith("SIME's jerk far above DP's and SOE's: untested; SIME / DP 2.90x (p = -)")
   md = results.table(str(tmp_path))
   assert "- lift: SOE needs the fewest rollouts: reproduced" in md

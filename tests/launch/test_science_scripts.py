@@ -204,17 +204,15 @@ def test_the_decompositions_halves_split_its_arms_by_round_0(parsed, half, first
   assert any(a.startswith("--results=") and a.endswith("/protocol-decompose/lift") for a in argv)
 
 
-@pytest.mark.parametrize("part, first_protocol", [("n3", True), ("n3-picked", False)])
-def test_the_decompositions_count_arms_run_on_3_varied_demonstrations_in_one_folder(parsed, part, first_protocol):
+@pytest.mark.parametrize(
+  "part, arms", [("n3", ("control-protocol_continued", "soe-protocol_continued")), ("n3-picked", ("control", "soe"))]
+)
+def test_the_decompositions_count_arms_run_on_3_varied_demonstrations_in_one_folder(parsed, part, arms):
   """The first protocol's two arms (n3) and soe and the control as picked (n3-picked) on the
   scripted-against-varied campaign's count, on the main campaign's evaluation states, in one folder of
   their own (their arm names differ, so the two pairs do not mix)."""
   ((argv, configs),) = parsed("protocol.sh", f"decompose-lift-{part}", "1", "/tmp/runs-protocol")
-  picked_pair = ("soe", "control")
-  want = {
-    m: a for m, a in DECOMPOSITION.items() if (m.endswith("protocol_continued") if first_protocol else m in picked_pair)
-  }
-  assert _arms(configs) == want
+  assert _arms(configs) == {m: DECOMPOSITION[m] for m in arms}
   assert {(c.data.num_demos, c.data.demo_style, c.eval.seed) for c in configs.values()} == {(3, "varied", 33333)}
   assert any(a.startswith("--results=") and a.endswith("/protocol-decompose/lift-n3") for a in argv)
   assert f"--workdir=/tmp/runs-protocol/decompose-lift-{part}" in argv
