@@ -24,7 +24,10 @@
 #   control (control, dp, sime, soe | control, soe_steer, dp+expert_data, soe+expert_data), for a seed
 #   that would not finish within one session, to results/protocol-main/TASK-1/ and TASK-2/.
 # PART rounds-lift: dp, sime, soe and the control on Lift over 3 rounds, eval.seed 33333, one
-#   invocation, to results/protocol-rounds/lift/.
+#   invocation, to results/protocol-rounds/lift/ (about 3 h a seed on 2 cores: more than a session).
+# PART rounds-lift-1, rounds-lift-2: the same arms in two invocations, each with its own round 0 and
+#   control over 3 rounds (control, dp, soe | control, sime), to results/protocol-rounds/lift-1/ and
+#   lift-2/.
 # PART decompose-lift: which of the picked protocol's differences from the first protocol SOE's round
 #   on Lift answers to, under the `cpu` preset (varied demonstrations, eval.seed 33333), one invocation,
 #   to results/protocol-decompose/lift/: soe and the control as picked (SIME's protocol), with the
@@ -49,7 +52,7 @@
 # environment, e.g. CONFIG=configs/lift.py:smoke PRESET=smoke RESULTS=/tmp/protocol for a quick check.
 set -euo pipefail
 source "$(dirname "$0")/measured_as.sh"
-parts="sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2], rounds-lift or decompose-lift[-1|-2|-n3|-n3-picked]"
+parts="sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2], rounds-lift[-1|-2] or decompose-lift[-1|-2|-n3|-n3-picked]"
 part=${1:?$parts}
 seed=${2:?the training seed}
 runs=${3:-/work/runs-protocol}
@@ -92,10 +95,13 @@ if [[ $part =~ ^decompose-lift(-(1|2|n3|n3-picked))?$ ]]; then
     --workdir="$runs/$part" --results="$out/protocol-decompose/$folder" --progress=false
   exit
 fi
-if [[ $part == rounds-lift ]]; then
+if [[ $part =~ ^rounds-lift(-([12]))?$ ]]; then
+  half=${BASH_REMATCH[2]} rounds_arms=(control,dp,soe control,sime)
+  methods=control,dp,sime,soe
+  [[ -n $half ]] && methods=${rounds_arms[half - 1]}
   python -m soe_jax campaign --config="configs/lift.py:${PRESET:-cpu}" --config.seed="$seed" \
-    --config.eval.seed=$eval_seed --config.rounds.num_rounds=3 --methods=control,dp,sime,soe \
-    --workdir="$runs/rounds-lift" --results="$out/protocol-rounds/lift" --progress=false
+    --config.eval.seed=$eval_seed --config.rounds.num_rounds=3 --methods="$methods" \
+    --workdir="$runs/$part" --results="$out/protocol-rounds/${part#rounds-}" --progress=false
   exit
 fi
 case ${part%-*} in

@@ -155,15 +155,19 @@ def test_the_picked_count_calibration_runs_sime_protocol_on_varied_demonstration
     ("main-can-1", "can", "control dp sime soe"),
     ("main-can-2", "can", "control soe_steer dp-expert_data soe-expert_data"),
     ("rounds-lift", "lift", "control dp sime soe"),
+    ("rounds-lift-1", "lift", "control dp soe"),
+    ("rounds-lift-2", "lift", "control sime"),
   ],
 )
 def test_the_main_campaigns_parts_run_every_arm_with_its_control_on_new_evaluation_states(parsed, part, task, methods):
   ((argv, configs),) = parsed("protocol.sh", part, "1", "/tmp/runs-protocol")
   assert sorted(c.method for c in configs.values()) == sorted(methods.split())
-  rounds = 3 if part == "rounds-lift" else 1
+  rounds = 3 if part.startswith("rounds-lift") else 1
   assert all(c.env.task == task and c.seed == 1 and c.rounds.num_rounds == rounds for c in configs.values())
   assert {c.eval.seed for c in configs.values()} == {33333}  # neither science issue's (77777, 55555)
   assert f"--workdir=/tmp/runs-protocol/{part.removeprefix('main-')}" in argv
+  folder = part.replace("main-", "protocol-main/").replace("rounds-", "protocol-rounds/")
+  assert any(a.startswith("--results=") and a.endswith(f"/{folder}") for a in argv)
 
 
 # The decomposition's arms: (re-fit, selection, prediction horizon).
