@@ -97,7 +97,7 @@ if [[ $part =~ ^decompose-lift(-(1|2|n3|n3-picked))?$ ]]; then
 fi
 if [[ $part =~ ^rounds-lift(-([12]))?$ ]]; then
   half=${BASH_REMATCH[2]} rounds_arms=(control,dp,soe control,sime)
-  methods=control,dp,sime,soe
+  methods=${rounds_arms[0]},${rounds_arms[1]#control,}
   [[ -n $half ]] && methods=${rounds_arms[half - 1]}
   python -m soe_jax campaign --config="configs/lift.py:${PRESET:-cpu}" --config.seed="$seed" \
     --config.eval.seed=$eval_seed --config.rounds.num_rounds=3 --methods="$methods" \
