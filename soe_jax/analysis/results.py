@@ -5,11 +5,12 @@ campaign`: the comparison of methods, `campaign_table`, the paper's claims teste
 monotonic improvement, `soe_jax.analysis.over_rounds`).
 
   python -m soe_jax results results/clean_inputs
-  python -m soe_jax results --docs     # every generated table and figure in RESULTS.md and BENCHMARKS.md
+  python -m soe_jax results --docs     # every generated table and figure in the README, RESULTS.md, BENCHMARKS.md
 
-In RESULTS.md and BENCHMARKS.md a generated table sits between `<!-- table: RESULTS_DIR -->` and
-`<!-- /table -->` (`<!-- table: RESULTS_DIR ARM:REFERENCE ... -->` for arms against each other,
-`against`; `<!-- claims: RESULTS_DIR ... -->` for the paper's claims over several folders); `--docs`
+In those documents a generated table sits between `<!-- table: RESULTS_DIR -->` and `<!-- /table -->`
+(`<!-- table: RESULTS_DIR ARM:REFERENCE ... -->` for arms against each other, `against`; `<!-- claims:
+RESULTS_DIR ... -->` for the paper's claims over several folders, `<!-- claims-brief: ... -->` for
+their verdicts alone); `--docs`
 (`docs`) rewrites each from its folder, and a test checks that they are current.
 `--docs` also draws each figure of rounds named by a line `<!-- figure: RESULTS_DIR PATH.png -->`.
 """
@@ -91,10 +92,11 @@ def campaign_claims(rows: list[dict]) -> str:
   return "".join(line + "\n" for line in lines)
 
 
-def claims_summary(folders: list[str]) -> str:
+def claims_summary(folders: list[str], brief: bool = False) -> str:
   """The paper's claims over several campaigns' folders (a task each, or part of one): per claim, a
-  line per folder and task with its verdict, its numbers and its training seeds. A folder of several
-  rounds answers the claim over rounds alone (its other claims would mix rounds)."""
+  line per folder and task with its verdict, its numbers and its training seeds; `brief`, a line per
+  claim naming each verdict's tasks and seeds. A folder of several rounds answers the claim over
+  rounds alone (its other claims would mix rounds)."""
   found = {}
   for folder in folders:
     if not (runs := aggregate.find_runs(folder)):
@@ -105,20 +107,31 @@ def claims_summary(folders: list[str]) -> str:
       tested = [over_rounds.claim(rows, task)] if over_rounds.multi_round(rows) else claims.claims(rows, task)
       for c in tested:
         if c is not None and c.verdict != "not measured":
-          where = f"{task}, {seeds} seed{'s' if seeds > 1 else ''} (`{folder}`)"
-          found.setdefault(c.title, []).append(f"  - {where}: **{c.verdict}**; {c.detail}.\n")
-  return "".join(f"- {title}:\n" + "".join(lines) for title, lines in found.items())
+          found.setdefault(c.title, []).append((task, f"{seeds} seed{'s' if seeds > 1 else ''}", folder, c))
+  if brief:
+    out = []
+    for title, tested in found.items():
+      verdicts = {}
+      for task, seeds, _, c in tested:
+        verdicts.setdefault(c.verdict, []).append(f"{task} ({seeds})")
+      out.append(f"- {title}: " + "; ".join(f"**{v}** on {', '.join(w)}" for v, w in verdicts.items()) + ".\n")
+    return "".join(out)
+  return "".join(
+    f"- {title}:\n"
+    + "".join(f"  - {task}, {seeds} (`{folder}`): **{c.verdict}**; {c.detail}.\n" for task, seeds, folder, c in tested)
+    for title, tested in found.items()
+  )
 
 
-# A generated table in RESULTS.md or BENCHMARKS.md: between these lines, naming its results folder (and
-# for a table of arms against each other, the pairs); or the paper's claims over several folders
-# (`claims_summary`), naming them.
+# A generated table in one of `DOCS`: between these lines, naming its results folder (and for a table
+# of arms against each other, the pairs); or the paper's claims over several folders (`claims_summary`,
+# `-brief` for their verdicts alone), naming them.
 _BEGIN = re.compile(r"^<!-- table: (\S+)((?: \S+:\S+)*) -->$")
-_CLAIMS = re.compile(r"^<!-- claims: (\S+(?: \S+)*) -->$")
+_CLAIMS = re.compile(r"^<!-- claims(-brief)?: (\S+(?: \S+)*) -->$")
 # A generated figure of rounds (`over_rounds.figure`): this line names its results folder and its file.
 _FIGURE = re.compile(r"^<!-- figure: (\S+) (\S+) -->$")
 _END = "<!-- /table -->"
-DOCS = ("RESULTS.md", "BENCHMARKS.md")
+DOCS = ("README.md", "RESULTS.md", "BENCHMARKS.md")
 
 
 def regenerate(text: str) -> str:
@@ -132,7 +145,11 @@ def regenerate(text: str) -> str:
       begin = next((j for j in range(i + 1, end or len(lines)) if opens(lines[j])), None)
       if end is None or begin is not None:  # an unclosed marker would swallow the text up to the next table's end
         raise ValueError(f"'{lines[i].strip()}' has no '{_END}' after it before the next table")
-      made = claims_summary(m.group(1).split()) if m.re is _CLAIMS else table(m.group(1), m.group(2).split())
+      made = (
+        claims_summary(m.group(2).split(), bool(m.group(1)))
+        if m.re is _CLAIMS
+        else table(m.group(1), m.group(2).split())
+      )
       out += [made, lines[end]]
       i = end
     i += 1

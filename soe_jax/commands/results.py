@@ -1,13 +1,13 @@
 """Committed records under results/ -> tables; `--docs` regenerates the documents' tables.
 
   python -m soe_jax results RESULTS_DIR [ARM:REFERENCE ...]
-  python -m soe_jax results --docs     # every generated table and figure in RESULTS.md and BENCHMARKS.md
+  python -m soe_jax results --docs     # every generated table and figure in the README, RESULTS.md, BENCHMARKS.md
 
 RESULTS_DIR holds records (`*.json`: a benchmark's, `converge`'s, `latent`'s, `kept`'s) or the runs a
 campaign exported; the table is printed (see `soe_jax/analysis/results.py` for each kind). With pairs
 of a campaign's methods, each arm against its reference instead, paired on every seed both ran. `--docs`,
 from the repository's root, rewrites every table between `<!-- table: RESULTS_DIR -->` and
-`<!-- /table -->` in RESULTS.md and BENCHMARKS.md from its folder, draws every figure named by a line
+`<!-- /table -->` in README.md, RESULTS.md and BENCHMARKS.md from its folder, draws every figure named by a line
 `<!-- figure: RESULTS_DIR PATH.png -->`, and prints a line per document and figure.
 """
 
@@ -20,7 +20,9 @@ from soe_jax.runtime.errors import UserError
 USAGE = "python -m soe_jax results RESULTS_DIR [ARM:REFERENCE ...] | --docs"
 
 FLAGS = cli.Flags()
-FLAGS.boolean("docs", False, "Regenerate every table in RESULTS.md and BENCHMARKS.md from its results folder.")
+FLAGS.boolean(
+  "docs", False, "Regenerate every table in README.md, RESULTS.md and BENCHMARKS.md from its results folder."
+)
 
 
 def _results(argv: list[str]) -> None:

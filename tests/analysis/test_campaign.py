@@ -234,6 +234,16 @@ def test_the_papers_claims_are_tested_on_the_paired_runs(tmp_path):
   )
   assert summary[3].startswith(f"  - lift, 1 seed (`{tmp_path / 's0'}`): **reproduced**; SOE against the control")
   assert summary[4] == "- Pass@5 ordered SOE > SIME > DP:" and len(summary) == 1 + 4 * 3 + 1
+  # Brief: a line per claim, each verdict naming its tasks and seeds.
+  brief = results.regenerate(f"<!-- claims-brief: {tmp_path} {tmp_path / 's0'} -->\n<!-- /table -->\n").splitlines()
+  assert brief[1] == (
+    "- SOE raises success (paper: +19% to +62% relative, DP can degrade): **reproduced** on lift (3 seeds), lift (1 seed)."
+  )
+  assert (
+    brief[4]
+    == "- SIME's jerk far above DP's and SOE's: **reproduced** on lift (3 seeds); **untested** on lift (1 seed)."
+  )
+  assert len(brief) == 1 + 4 + 1
 
 
 def test_a_kl_arm_pairs_with_the_control_only_where_its_base_path_is_the_controls(tmp_path):
