@@ -10,9 +10,9 @@ monotonic improvement, `soe_jax.analysis.over_rounds`).
 In those documents a generated table sits between `<!-- table: RESULTS_DIR -->` and `<!-- /table -->`
 (`<!-- table: RESULTS_DIR ARM:REFERENCE ... -->` for arms against each other, `against`; `<!-- claims:
 RESULTS_DIR ... -->` for the paper's claims over several folders, `<!-- claims-brief: ... -->` for
-their verdicts alone); `--docs`
-(`docs`) rewrites each from its folder, and a test checks that they are current.
-`--docs` also draws each figure of rounds named by a line `<!-- figure: RESULTS_DIR PATH.png -->`.
+their verdicts alone); `--docs` (`docs`) rewrites each from its folder, and a test checks that they
+are current. `--docs` also draws each figure of rounds named by a line `<!-- figure: RESULTS_DIR
+PATH.png -->`.
 """
 
 from __future__ import annotations

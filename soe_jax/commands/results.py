@@ -7,8 +7,8 @@ RESULTS_DIR holds records (`*.json`: a benchmark's, `converge`'s, `latent`'s, `k
 campaign exported; the table is printed (see `soe_jax/analysis/results.py` for each kind). With pairs
 of a campaign's methods, each arm against its reference instead, paired on every seed both ran. `--docs`,
 from the repository's root, rewrites every table between `<!-- table: RESULTS_DIR -->` and
-`<!-- /table -->` in README.md, RESULTS.md and BENCHMARKS.md from its folder, draws every figure named by a line
-`<!-- figure: RESULTS_DIR PATH.png -->`, and prints a line per document and figure.
+`<!-- /table -->` in README.md, RESULTS.md and BENCHMARKS.md from its folder, draws every figure
+named by a line `<!-- figure: RESULTS_DIR PATH.png -->`, and prints a line per document and figure.
 """
 
 from __future__ import annotations
