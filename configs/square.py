@@ -9,8 +9,8 @@ each preset does), leaving metrics.jsonl, report.md and plots in runs/square-soe
 Demonstrations: 20, robomimic's core_20 as SIME uses it; under the `cpu` preset varied ones (human-like
 paths, grasps and pacing: RESULTS.md, "Human-like demonstrations"), under SIME's protocol, with a
 20k-step round-0 fit, which every round repeats from fresh parameters: round 0 succeeds on 72.0% of 200
-evaluation start states (seed 0, the README's first command, whose round of SOE ends at 75.0%: one
-seed without its control, an anecdote). On scripted demonstrations under the first protocol
+evaluation start states (seed 0, the README's first command, on an Intel Xeon; its round of SOE ends at
+75.0%, one seed without its control, an anecdote; 72.5% and 73.5% on an AMD EPYC). On scripted demonstrations under the first protocol
 (`protocol=continued,style=scripted`) round 0 converged at 65.8% of 400 states (BENCHMARKS.md,
 "Convergence of round 0"; results/convergence/08_square_recipe_20k.json).
 
