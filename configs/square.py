@@ -10,9 +10,9 @@ Demonstrations: 20, robomimic's core_20 as SIME uses it; under the `cpu` preset 
 paths, grasps and pacing: RESULTS.md, "Human-like demonstrations"), under SIME's protocol, with a
 20k-step round-0 fit, which every round repeats from fresh parameters: round 0 succeeds on 72.0% of 200
 evaluation start states (seed 0, the README's first command, on an Intel Xeon; its round of SOE ends at
-75.0%, one seed without its control, an anecdote; 72.5% and 73.5% on an AMD EPYC). On scripted demonstrations under the first protocol
-(`protocol=continued,style=scripted`) round 0 converged at 65.8% of 400 states (BENCHMARKS.md,
-"Convergence of round 0"; results/convergence/08_square_recipe_20k.json).
+75.0%, one seed without its control, an anecdote; 72.5% and 73.5% on an AMD EPYC). On scripted
+demonstrations under the first protocol (`protocol=continued,style=scripted`) round 0 converged at 65.8%
+of 400 states (BENCHMARKS.md, "Convergence of round 0"; results/convergence/08_square_recipe_20k.json).
 
 Benchmarks:
   python -m soe_jax bench fit --config=configs/square.py:cpu --bypass=on
