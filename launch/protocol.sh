@@ -23,7 +23,7 @@
 # PART main-TASK-1, main-TASK-2: the same arms in two invocations, each with its own round 0 and
 #   control (control, dp, sime, soe | control, soe_steer, dp+expert_data, soe+expert_data), for a seed
 #   that would not finish within one session, to results/protocol-main/TASK-1/ and TASK-2/ (Square's
-#   first half: 1 h 40 to 1 h 48 min a seed on 2 cores of an AMD EPYC).
+#   first half: 1 h 31 to 1 h 48 min a seed on 2 cores of an AMD EPYC).
 # PART rounds-lift: dp, sime, soe and the control on Lift over 3 rounds, eval.seed 33333, one
 #   invocation, to results/protocol-rounds/lift/ (2 h 38 to 2 h 52 min a seed on 2 cores of an AMD EPYC).
 # PART rounds-lift-1, rounds-lift-2: the same arms in two shorter invocations, each with its own round 0 and
