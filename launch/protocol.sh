@@ -20,10 +20,11 @@
 #   (the `cpu` preset once it is applied): dp, sime, soe, soe_steer, the control and both expert_data
 #   arms, one round, evaluated on start states neither science issue used (eval.seed 33333), one
 #   invocation, to results/protocol-main/TASK/.
-# PART main-TASK-1, main-TASK-2: the same arms in two invocations, each with its own round 0 and
-#   control (control, dp, sime, soe | control, soe_steer, dp+expert_data, soe+expert_data), for a seed
-#   that would not finish within one session, to results/protocol-main/TASK-1/ and TASK-2/ (Square's
-#   first half: 1 h 31 to 1 h 48 min a seed on 2 cores of an AMD EPYC).
+# PART main-TASK-1, main-TASK-2, main-TASK-3: the same arms in three invocations, each with its own
+#   round 0 and control (control, dp, sime, soe | control, soe_steer | control, dp+expert_data,
+#   soe+expert_data), for a seed that would not finish within one session, to
+#   results/protocol-main/TASK-1/, TASK-2/ and TASK-3/ (Square's first part: 1 h 31 to 1 h 48 min a
+#   seed on 2 cores of an AMD EPYC).
 # PART rounds-lift: dp, sime, soe and the control on Lift over 3 rounds, eval.seed 33333, one
 #   invocation, to results/protocol-rounds/lift/ (2 h 38 to 2 h 52 min a seed on 2 cores of an AMD EPYC).
 # PART rounds-lift-1, rounds-lift-2: the same arms in two shorter invocations, each with its own round 0 and
@@ -53,7 +54,7 @@
 # environment, e.g. CONFIG=configs/lift.py:smoke PRESET=smoke RESULTS=/tmp/protocol for a quick check.
 set -euo pipefail
 source "$(dirname "$0")/measured_as.sh"
-parts="sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2], rounds-lift[-1|-2] or decompose-lift[-1|-2|-n3|-n3-picked]"
+parts="sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2|-3], rounds-lift[-1|-2] or decompose-lift[-1|-2|-n3|-n3-picked]"
 part=${1:?$parts}
 seed=${2:?the training seed}
 runs=${3:-/work/runs-protocol}
@@ -62,11 +63,11 @@ out=${RESULTS:-results}
 # The first protocol on scripted demonstrations: what the control arm had when the parts before main-TASK ran.
 first_protocol=(rounds.refit=continue data.demo_style=scripted)
 eval_seed=33333  # the main campaign's evaluation states: used by neither science issue (77777, 55555)
-main_arms=(control,dp,sime,soe control,soe_steer,dp+expert_data,soe+expert_data)
-if [[ $part =~ ^main-(lift|can|square)(-([12]))?$ ]]; then
-  task=${BASH_REMATCH[1]} half=${BASH_REMATCH[3]}
-  methods=${main_arms[0]},${main_arms[1]#control,}
-  [[ -n $half ]] && methods=${main_arms[half - 1]}
+main_arms=(control,dp,sime,soe control,soe_steer control,dp+expert_data,soe+expert_data)
+if [[ $part =~ ^main-(lift|can|square)(-([123]))?$ ]]; then
+  task=${BASH_REMATCH[1]} third=${BASH_REMATCH[3]}
+  methods=${main_arms[0]},${main_arms[1]#control,},${main_arms[2]#control,}
+  [[ -n $third ]] && methods=${main_arms[third - 1]}
   python -m soe_jax campaign --config="configs/$task.py:${PRESET:-cpu}" --config.seed="$seed" \
     --config.eval.seed=$eval_seed --methods="$methods" --workdir="$runs/${part#main-}" \
     --results="$out/protocol-main/${part#main-}" --progress=false

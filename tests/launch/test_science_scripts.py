@@ -153,7 +153,8 @@ def test_the_picked_count_calibration_runs_sime_protocol_on_varied_demonstration
   [
     ("main-square", "square", "control dp sime soe soe_steer dp-expert_data soe-expert_data"),
     ("main-can-1", "can", "control dp sime soe"),
-    ("main-can-2", "can", "control soe_steer dp-expert_data soe-expert_data"),
+    ("main-can-2", "can", "control soe_steer"),
+    ("main-square-3", "square", "control dp-expert_data soe-expert_data"),
     ("rounds-lift", "lift", "control dp sime soe"),
     ("rounds-lift-1", "lift", "control dp soe"),
     ("rounds-lift-2", "lift", "control sime"),
