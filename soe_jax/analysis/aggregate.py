@@ -154,9 +154,9 @@ def rows(workdirs: list[str]) -> list[dict]:
   for (task, method), found in by_method.items():
     for s, v in zip(found, _variants([r["settings"] for r in found])):
       group = groups.setdefault((task, method, v), [])
-      if s["seed"] in [r["seed"] for r in group]:
+      if first := next((r for r in group if r["seed"] == s["seed"]), None):
         logging.warning("%s repeats seed %s of %s with the same config; left out of the table",
-                        s["workdir"], s["seed"], group[0]["workdir"])  # fmt: skip
+                        s["workdir"], s["seed"], first["workdir"])  # fmt: skip
         continue
       group.append(s)
   out = []

@@ -44,3 +44,14 @@ def test_a_documents_table_of_pairs_is_regenerated_from_its_folder(campaign, mon
   new = results.regenerate(text)
   assert "| lift | soe-aligned | soe | 2 | +50.0 ± 0.0 pts, 4 / 0, p=0.0455 |" in new and "stale" not in new
   assert results.table(".") != results.table(".", ["soe-aligned:soe"])  # without pairs: the campaign's table
+
+
+def test_a_repeated_seed_is_left_out_naming_the_run_it_repeats(campaign, caplog):
+  again = campaign / "t" / "s1" / "control"  # found after s1/control, which it repeats
+  _fake_run(again, "control", 1, [1, 0, 0, 1], [0, 0, 0, 0])
+  rows = aggregate.rows(aggregate.find_runs(str(campaign)))
+  control = next(r for r in rows if r["method"] == "control")
+  kept = {run["seed"]: run["workdir"] for run in control["runs"]}
+  assert len(control["runs"]) == 2 and kept[1] == str(campaign / "s1" / "control")
+  (warning,) = [r.getMessage() for r in caplog.records if "repeats seed" in r.getMessage()]
+  assert warning.startswith(f"{again} repeats seed 1 of {campaign / 's1' / 'control'} ")
