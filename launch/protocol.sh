@@ -65,9 +65,9 @@ first_protocol=(rounds.refit=continue data.demo_style=scripted)
 eval_seed=33333  # the main campaign's evaluation states: used by neither science issue (77777, 55555)
 main_arms=(control,dp,sime,soe control,soe_steer control,dp+expert_data,soe+expert_data)
 if [[ $part =~ ^main-(lift|can|square)(-([123]))?$ ]]; then
-  task=${BASH_REMATCH[1]} third=${BASH_REMATCH[3]}
+  task=${BASH_REMATCH[1]} nth=${BASH_REMATCH[3]}
   methods=${main_arms[0]},${main_arms[1]#control,},${main_arms[2]#control,}
-  [[ -n $third ]] && methods=${main_arms[third - 1]}
+  [[ -n $nth ]] && methods=${main_arms[nth - 1]}
   python -m soe_jax campaign --config="configs/$task.py:${PRESET:-cpu}" --config.seed="$seed" \
     --config.eval.seed=$eval_seed --methods="$methods" --workdir="$runs/${part#main-}" \
     --results="$out/protocol-main/${part#main-}" --progress=false
