@@ -106,7 +106,8 @@ def table(explore: dict | None, k: int = 5, before: dict | None = None, after: d
     out["explore"] = dict(dataset=explore["root"], fps=explore["fps"],
                           modes={m: mode_summary(eps, k) for m, eps in sorted(by_mode.items())})  # fmt: skip
   if before is not None and after is not None:
-    out["before_after"] = dict(before=before["root"], after=after["root"],
+    # `before` and `after` are the two rates (before_after's); the datasets go under their own names.
+    out["before_after"] = dict(before_dataset=before["root"], after_dataset=after["root"],
                                **before_after(before["episodes"], after["episodes"]))  # fmt: skip
   return out
 
