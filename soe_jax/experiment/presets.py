@@ -270,7 +270,7 @@ def apply_presets(
     c.env.object_vector = False  # the paper's: images and proprioception
     cameras = env_registry.image_keys(c.env.task)
     c.policy.encoder = ml_collections.ConfigDict(
-      dict(name="image", kwargs=dict(cameras=cameras, crop_size=76, widths=widths))
+      dict(name="image", kwargs=dict(cameras=cameras, crop_size=76, widths=widths, shared=False))
     )
     # Two 84 x 84 cameras: 42 kB a frame (4.2 GB for 100k frames; 1.7 GB for the CPU's 40k); Transport's
     # four, twice that.

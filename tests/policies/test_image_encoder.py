@@ -47,3 +47,19 @@ def test_im2col_convolutions_match_xlas():
       x, w, (stride, stride), [(pad, pad)] * 2, dimension_numbers=("NHWC", "HWIO", "NHWC")
     )
     np.testing.assert_allclose(conv.apply(params, x), reference, rtol=1e-4, atol=1e-4)
+
+
+def test_shared_trunk_encodes_each_camera_as_its_own_trunk_would():
+  cams = ("agentview_image", "robot0_eye_in_hand_image")
+  obs = {
+    "images": {c: jax.random.uniform(jax.random.PRNGKey(i), (2, 1, 20, 20, 3)) for i, c in enumerate(cams)},
+    "lowdim": jnp.ones((2, 1, 3)),
+  }
+  shared = resnet.ImageEncoder(cameras=cams, crop_size=16, widths=(8, 8, 8, 8), shared=True)
+  params = shared.init(jax.random.PRNGKey(0), obs)
+  assert list(params["params"]) == ["camera"]  # one trunk, not one per camera
+  out = shared.apply(params, obs)
+  two = resnet.ImageEncoder(cameras=cams, crop_size=16, widths=(8, 8, 8, 8))
+  same = {"params": {f"camera_{i}": params["params"]["camera"] for i in range(2)}}
+  np.testing.assert_allclose(out, two.apply(same, obs), rtol=1e-5, atol=1e-6)
+  assert out.shape == (2, 2 * 64 + 3)

@@ -145,21 +145,32 @@ def crop(images, size, train: bool, key=None):
 class ImageEncoder(nn.Module):
   """obs {"images": {camera: (B, To, H, W, 3) in [0, 1]}, "lowdim": (B, To, D) normalised} -> (B, To * (64 n_cams + D)).
 
-  Cameras are encoded in the order of `cameras`, then the low-dim vector, per frame, frames oldest first."""
+  Cameras are encoded in the order of `cameras`, then the low-dim vector, per frame, frames oldest first.
+  `shared`: one trunk for every camera (the cameras' crops as one batch; robomimic's default is a trunk per
+  camera, which Diffusion Policy keeps) instead of one each."""
 
   cameras: Sequence[str] = ("agentview_image", "robot0_eye_in_hand_image")
   crop_size: int | float | Sequence[int] = 76  # `crop_shape`
   widths: Sequence[int] = RESNET18_WIDTHS
+  shared: bool = False
 
   @nn.compact
   def __call__(self, obs, train: bool = False):
-    feats = []
-    for i, cam in enumerate(self.cameras):
+    crops = []
+    for cam in self.cameras:
       key = self.make_rng("crop") if train else None
-      images = crop(obs["images"][cam], self.crop_size, train, key) * 2.0 - 1.0
-      flat = images.reshape((-1,) + images.shape[-3:])  # frames as one batch, as Diffusion Policy does
-      feats.append(
-        CameraEncoder(widths=tuple(self.widths), name=f"camera_{i}")(flat).reshape(images.shape[:-3] + (-1,))
-      )
+      crops.append(crop(obs["images"][cam], self.crop_size, train, key) * 2.0 - 1.0)
+    lead = crops[0].shape[:-3]
+    if self.shared:  # every camera's frames as one batch through one trunk
+      flat = jnp.concatenate([c.reshape((-1,) + c.shape[-3:]) for c in crops])
+      out = CameraEncoder(widths=tuple(self.widths), name="camera")(flat).reshape((len(crops),) + lead + (-1,))
+      feats = list(out)
+    else:  # frames as one batch per camera, as Diffusion Policy does
+      feats = [
+        CameraEncoder(widths=tuple(self.widths), name=f"camera_{i}")(c.reshape((-1,) + c.shape[-3:])).reshape(
+          lead + (-1,)
+        )
+        for i, c in enumerate(crops)
+      ]
     per_frame = jnp.concatenate(feats + [obs["lowdim"]], axis=-1)
     return per_frame.reshape(per_frame.shape[:-2] + (-1,))
