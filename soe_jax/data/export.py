@@ -8,12 +8,12 @@
   `meta/episode_source` and `meta/episode_steered`;
 - `rlds`: an RLDS dataset through tensorflow-datasets (`soe_jax/data/rlds.py`), each episode's group in
   its `episode_metadata`;
-- `lerobot`: a LeRobotDataset v3.0 (`soe_jax/data/lerobot.py`) at the control rate, every observation
-  `observation.<key>` (cameras as videos), `next.success` from each episode's success, and per frame
-  the episode's group (`source`, `steered`), the simulator state (`simulator_state`, float64) and the
-  episode's start state (`start_state`, so `refit.select=first_success` can group tries), as a robot's
-  recorder would write it; the provenance in `meta/soe_jax.json`. (No next observations: LeRobot
-  keeps none.)
+- `lerobot` (pyarrow: the `robot` extra): a LeRobotDataset v3.0 (`soe_jax/data/lerobot.py`) at the control
+  rate, every observation `observation.<key>` (cameras as videos), `next.success` from each episode's
+  success, and per frame the episode's group (`source`, `steered`), the simulator state
+  (`simulator_state`, float64) and the episode's start state (`start_state`, so
+  `refit.select=first_success` can group tries), as a robot's recorder would write it; the provenance in
+  `meta/soe_jax.json`. (No next observations: LeRobot keeps none.)
 `load(path)` reads any back as the same groups of episodes (`EpisodeSet`s), so a buffer built
 from them holds the same windows (a LeRobotDataset's images within its video's PSNR).
 """
@@ -27,7 +27,7 @@ import h5py
 import ml_collections
 import numpy as np
 
-from soe_jax.data import hdf5, lerobot, rlds, zarr_store
+from soe_jax.data import hdf5, rlds, zarr_store
 from soe_jax.data.episodes import EpisodeSet, draw_images
 from soe_jax.envs import registry as env_registry
 from soe_jax.runtime import atomic
@@ -85,7 +85,20 @@ def read_robomimic(path: str) -> tuple[list[EpisodeSet], dict]:
   return sets, _meta(env_args)
 
 
+def _lerobot():
+  """`soe_jax/data/lerobot.py`, imported only where a LeRobotDataset is read or written: it needs pyarrow,
+  which the `robot` extra installs and the base install lacks (robomimic's HDF5 needs none of it)."""
+  try:
+    from soe_jax.data import lerobot
+  except ImportError as e:
+    if (e.name or "").partition(".")[0] != "pyarrow":
+      raise
+    raise UserError('the lerobot format needs pyarrow, in the robot extra: pip install -e ".[robot]"') from None
+  return lerobot
+
+
 def write_lerobot(path: str, sets: list[EpisodeSet], meta: dict) -> None:
+  lerobot = _lerobot()
   episodes = []
   for s in sets:
     for ep in s.episodes:
@@ -103,7 +116,7 @@ def write_lerobot(path: str, sets: list[EpisodeSet], meta: dict) -> None:
 def read_lerobot(path: str) -> tuple[list[EpisodeSet], dict]:
   """A LeRobotDataset -> its groups (by the `source` and `steered` columns where it has them, else one
   group of demonstrations), observations under their keys without `observation.`."""
-  info, found = lerobot.read_dataset(path)
+  info, found = _lerobot().read_dataset(path)
   groups = {}
   for ep in found:
     c = ep["columns"]

@@ -23,6 +23,7 @@ import numpy as np
 
 from soe_jax.data.episodes import EpisodeSet
 from soe_jax.runtime import atomic
+from soe_jax.runtime.errors import UserError
 
 NAME, VERSION = "soe_jax_episodes", "1.0.0"
 
@@ -31,7 +32,7 @@ def _tfds():
   try:
     import tensorflow_datasets as tfds
   except ImportError:
-    raise ImportError("the RLDS format needs the rlds extra: pip install -e '.[rlds]'") from None
+    raise UserError('the RLDS format needs the rlds extra: pip install -e ".[rlds]"') from None
   return tfds
 
 

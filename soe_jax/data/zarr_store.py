@@ -22,13 +22,14 @@ import numpy as np
 
 from soe_jax.data.episodes import EpisodeSet
 from soe_jax.runtime import atomic
+from soe_jax.runtime.errors import UserError
 
 
 def _zarr():
   try:
     import zarr
   except ImportError:
-    raise ImportError("the zarr format needs the zarr extra: pip install -e '.[zarr]'") from None
+    raise UserError('the zarr format needs the zarr extra: pip install -e ".[zarr]"') from None
   return zarr
 
 
