@@ -87,10 +87,14 @@ def parse(flag_values: Flags, argv: list[str], required: tuple[str, ...] = ()) -
     delattr(flag_values, name)
   given = next((a.split("=", 1)[1] for a in argv if a.startswith("--config=")), None)
   if given is not None:
+    path, colon, presets = given.partition(":")
+    resolved = configfile.resolve(path)  # the repository's configs/ from any directory
     try:
-      configfile.check(given.partition(":")[0])  # a file that cannot be a config: one line, before it runs
+      configfile.check(resolved)  # a file that cannot be a config: one line, before it runs
     except UserError as e:
       fail(str(e))
+    if resolved != path:
+      argv = [f"--config={resolved}{colon}{presets}" if a == f"--config={given}" else a for a in argv]
   saved, sys.argv = sys.argv, list(argv)  # (ml_collections reads `--config.a.b=v` from sys.argv)
   try:
     rest = flag_values(argv)

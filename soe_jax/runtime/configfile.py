@@ -1,5 +1,7 @@
 """Config files outside flag parsing: `configs/<task>.py[:PRESETS]` loaded as `--config=` would load
-it, and the keys a config has (for "did you mean" on a misspelled override)."""
+it, and the keys a config has (for "did you mean" on a misspelled override). A relative path that the
+current directory lacks is looked up in the repository the package runs from (`resolve`), so the
+repository's configs work from any directory."""
 
 from __future__ import annotations
 
@@ -12,11 +14,15 @@ import ml_collections
 
 from soe_jax.runtime.errors import UserError
 
+# The repository the package runs from (installed editable, `pip install -e .`), which holds `configs/`.
+REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
 
 def load(spec: str, presets: str = "", overrides: dict | None = None) -> ml_collections.ConfigDict:
   """The config `configs/<task>.py[:PRESETS]` gives with `presets` appended, then `overrides`
   ({"a.b": value})."""
   path, _, own = spec.partition(":")
+  path = resolve(path)
   check(path)
   module_spec = importlib.util.spec_from_file_location("soe_config", path)
   module = importlib.util.module_from_spec(module_spec)
@@ -26,11 +32,24 @@ def load(spec: str, presets: str = "", overrides: dict | None = None) -> ml_coll
   return config
 
 
+def resolve(path: str) -> str:
+  """The config file `path` names: as given where it exists or is absolute; else, relative to the
+  repository's root (`REPO_ROOT`: `configs/lift.py` from any directory) where it is there; else as given."""
+  if os.path.exists(path) or os.path.isabs(path):
+    return path
+  in_repo = os.path.join(REPO_ROOT, path)
+  return in_repo if os.path.exists(in_repo) else path
+
+
 def check(path: str) -> None:
   """Refuse a config file that cannot be one, without running it: missing, a directory, not text, not
   Python, or without a top-level `get_config` (`UserError` naming the file and what is wrong)."""
   if not os.path.exists(path):
-    raise UserError(f"no config file at {path!r}")
+    where = f"the current directory, {os.getcwd()}"
+    if os.path.isdir(os.path.join(REPO_ROOT, "configs")):
+      where += f", or the repository's root, {REPO_ROOT}"
+    where = "" if os.path.isabs(path) else f" (a relative path is from {where})"
+    raise UserError(f"no config file at {path!r}{where}")
   if not os.path.isfile(path):
     raise UserError(f"config file {path!r} is a directory, not a Python file")
   try:
