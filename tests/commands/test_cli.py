@@ -8,6 +8,7 @@ import sys
 import pytest
 
 from soe_jax import __main__ as entry
+from soe_jax.runtime import cli
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -76,3 +77,11 @@ def test_mistakes_are_one_error_line_with_exit_2(capsys):
     assert stopped.value.code == 2 and len(lines) == 1 and lines[0].startswith("error: "), (args, lines)
     assert expected in lines[0], (args, lines[0])
     assert "Error:" not in lines[0], lines[0]  # no exception class names
+
+
+def test_run_help_says_round_0_is_written_outside_the_workdir():
+  from soe_jax.commands import run
+
+  text = " ".join(cli.help_text(run.__doc__, run.FLAGS).split())
+  assert "Round 0 (demonstrations, fit, evaluation) is written outside the workdir" in text, text
+  assert "DIR/../round0/<task>-<hash>/" in text, text
