@@ -50,8 +50,8 @@ def main(argv):
   export.write_lerobot(os.path.join(work, "demos"), [EpisodeSet(demos, 0)], {"env_name": "lift"})
   keys = observations.POLICY_OBS_KEYS
   config = robot_config.config("cpu")
-  config.dataset.update(path=os.path.join(work, "demos"), observations=tuple(f"observation.{k}" for k in keys),
-                        gripper="identity")  # fmt: skip
+  config.dataset.update(path=os.path.join(work, "demos"), observations=tuple(f"observation.{k}" for k in keys))
+  config.dataset.normalize.gripper = "identity"
   config.fit.num_steps = FLAGS.steps
   run.fit(config, os.path.join(work, "run"))
   ckpt = os.path.join(work, "run", "rounds", "0", "ckpt")

@@ -19,14 +19,20 @@ from soe_jax.runtime.errors import UserError
 from soe_jax.train import fit as fit_lib
 
 
-def dimension_name(spec: PolicySpec, d: int) -> str:
-  """Action dimension `d` -> e.g. 'robot0 position[1]'."""
+def _part(spec: PolicySpec, d: int) -> tuple[int, str, int]:
+  """Action dimension `d` -> (arm, part, index within the part)."""
   for k, arm in enumerate(spec.actions):
     for part, size in arm:
       if d < size:
-        return f"robot{k} {part}[{d}]"
+        return k, part, d
       d -= size
   raise IndexError(f"the action has no dimension {d}")
+
+
+def dimension_name(spec: PolicySpec, d: int) -> str:
+  """Action dimension `d` -> e.g. 'robot0 position[1]'."""
+  k, part, i = _part(spec, d)
+  return f"robot{k} {part}[{i}]"
 
 
 def check(sets: list[EpisodeSet], norm: Normalizer, spec: PolicySpec, mode: str, path_of, policy=None) -> float:
@@ -36,8 +42,9 @@ def check(sets: list[EpisodeSet], norm: Normalizer, spec: PolicySpec, mode: str,
   if policy is not None and policy.frame is not None:
     episodes = [ep for s in sets for ep in s.episodes]
     w = fit_lib.in_frame(policy_windows(episodes, policy), policy.frame)
-    return _report(float(np.mean(norm.outside(np.asarray(w["actions"])).any(-1))))
-  outside, total = 0, 0
+    out = norm.outside(np.asarray(w["actions"])).reshape(-1, spec.action_dim)
+    return _report(int(out.any(-1).sum()), out.sum(0), len(out), spec)
+  outside, per_dim, total = 0, np.zeros(spec.action_dim, int), 0
   for s in sets:
     for i, ep in enumerate(s.episodes):
       actions = np.asarray(ep["actions"])
@@ -55,14 +62,33 @@ def check(sets: list[EpisodeSet], norm: Normalizer, spec: PolicySpec, mode: str,
           "use policy.action_range=demonstrations"
         )
       outside += int(out.any(-1).sum())
-  return _report(outside / max(total, 1))
+      per_dim += out.reshape(-1, spec.action_dim).sum(0)
+  return _report(outside, per_dim, total, spec)
 
 
-def _report(fraction: float) -> float:
-  if fraction > 0:
-    logging.warning(
-      "%.2f%% of the training actions have a coordinate outside the demonstrations' action range and are "
-      "clipped to it (policy.action_range=demonstrations; the workspace box clips none)",
-      100 * fraction,
-    )
+def _report(outside: int, per_dim: np.ndarray, total: int, spec: PolicySpec) -> float:
+  """The fraction of `total` actions with a coordinate clipped (`outside` of them; `per_dim` (A,): how
+  many per dimension), with a warning naming each clipped part and dimension and why it clips."""
+  fraction = outside / max(total, 1)
+  if fraction == 0:
+    return fraction
+  dims = np.flatnonzero(per_dim)
+  ranged = spec.ranged_action_dims()
+  named = ", ".join(f"{dimension_name(spec, d)} in {100 * per_dim[d] / total:.1f}%" for d in dims)
+  why = []
+  if ranged[dims].any():
+    why.append("a part normalised by range is clipped to the demonstrations' range (policy.action_range="
+               "demonstrations; the workspace box clips none)")  # fmt: skip
+  left = sorted({(k, part) for k, part, _ in (_part(spec, d) for d in dims if not ranged[d])})
+  if left:
+    parts = ", ".join(f"robot{k} {part}" for k, part in left)
+    fields = ", ".join(sorted({f"dataset.normalize.{part}=range" for _, part in left}))
+    why.append(f"{parts} is left as it is (identity), so the policy can command only [-1, 1] of it: normalise "
+               f"it by its range (a robot's config: {fields})")  # fmt: skip
+  logging.warning(
+    "%.2f%% of the training actions have a coordinate outside [-1, 1] once normalised and are clipped to it: %s. %s",
+    100 * fraction,
+    named,
+    "; ".join(why),
+  )
   return fraction

@@ -19,18 +19,34 @@ PRESETS = ("smoke", "cpu", "image")
 ARM = (("position", 3), ("rotation_6d", 6), ("gripper", 1))
 
 
+def normalize() -> ml_collections.ConfigDict:
+  """`dataset.normalize`: one field per action part, `range` or `identity`. A part of `dataset.actions`
+  not named here is normalised by its range."""
+  return ml_collections.ConfigDict(
+    dict(
+      position="range",
+      rotation_6d="identity",  # the rotation matrix's first two rows: already in [-1, 1]
+      axis_angle="range",  # a rotation vector, up to pi rad in each coordinate
+      quaternion="range",
+      euler="range",  # up to pi rad
+      gripper="range",  # a real gripper's opening in metres or counts (identity: already in [-1, 1])
+    )
+  )
+
+
 def base_config() -> ml_collections.ConfigDict:
   c = ml_collections.ConfigDict()
   c.seed = 0
   # path: a LeRobotDataset v3.0 directory. observations: the features the policy reads ((): every
   # `observation.*` feature). image_size: (height, width) the policy's images are resized to when read
-  # ((0, 0): as stored). actions: the action feature's parts per arm, in order. gripper: how the gripper
-  # is normalised (range: a real gripper's opening in metres or counts; identity: already in [-1, 1]).
-  # poses: per arm {"position": key or [key, offset], "orientation": key or [key, offset], "quat_order":
-  # "xyzw" | "wxyz"} (needed by policy.action_frame=chunk_relative). action_box: per arm {"position":
-  # [[lo x, y, z], [hi x, y, z]]} the robot may be commanded in (with policy.action_range=workspace), or ().
+  # ((0, 0): as stored). actions: the action feature's parts per arm, in order. normalize: per part
+  # name, how the normaliser treats it (range: its range in the data, or the action box, mapped to
+  # [-1, 1]; identity: left as it is, for a part already in [-1, 1]). poses: per arm {"position": key
+  # or [key, offset], "orientation": key or [key, offset], "quat_order": "xyzw" | "wxyz"} (needed by
+  # policy.action_frame=chunk_relative). action_box: per arm {"position": [[lo x, y, z], [hi x, y, z]]}
+  # the robot may be commanded in (with policy.action_range=workspace), or ().
   c.dataset = ml_collections.ConfigDict(
-    dict(path="", observations=(), image_size=(0, 0), actions=(ARM,), gripper="range", poses=(), action_box=())
+    dict(path="", observations=(), image_size=(0, 0), actions=(ARM,), normalize=normalize(), poses=(), action_box=())
   )
   c.policy = sections.policy()
   c.policy.action_range = "demonstrations"  # the data's widened range, unless a box is stated

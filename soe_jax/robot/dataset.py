@@ -4,7 +4,8 @@ and the episodes checked against it.
 The spec's observations are the dataset's `observation.*` features (or the config's `dataset.observations`),
 low-dimensional vectors as they are, cameras resized to `dataset.image_size` when read; its actions the
 `action` feature laid out as `dataset.actions` says, in the world frame, at the dataset's `fps`; each
-part normalised by range (positions; the gripper under `dataset.gripper = range`) or left as it is.
+part normalised by its range or left as it is, as `dataset.normalize` says per part (a part it does not
+name: by range).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from soe_jax.data.spec import PolicySpec
 from soe_jax.runtime.errors import UserError
 
 IMAGE_DTYPES = ("video", "image")
+NORMS = ("range", "identity")  # a part's normaliser: its range mapped to [-1, 1], or none
 
 
 def _plain(x):
@@ -28,6 +30,20 @@ def _plain(x):
   if isinstance(x, (list, tuple)):
     return [_plain(v) for v in x]
   return x
+
+
+def action_norm(dataset: ml_collections.ConfigDict, arms: list) -> list[dict]:
+  """Per arm, {part: "range" | "identity"} for every part of its action, from `dataset.normalize` (a part
+  it does not name: range). A config saved before parts had their own field names the gripper's alone."""
+  if "normalize" not in dataset:
+    return [{"gripper": dataset.gripper} for _ in arms]
+  if "gripper" in dataset:
+    raise UserError("dataset.gripper is now dataset.normalize.gripper (one field per action part); drop the first")
+  rules = _plain(dataset.normalize)
+  bad = [f"dataset.normalize.{part} = {how!r}" for part, how in rules.items() if how not in NORMS]
+  if bad:
+    raise UserError(f"{', '.join(bad)}; known: {', '.join(NORMS)}")
+  return [{part: rules.get(part, "range") for part, _ in arm} for arm in arms]
 
 
 def spec_from_info(info: dict, dataset: ml_collections.ConfigDict, root: str = "the dataset") -> PolicySpec:
@@ -63,7 +79,7 @@ def spec_from_info(info: dict, dataset: ml_collections.ConfigDict, root: str = "
       control_hz=float(info["fps"]),
       action_box=_plain(dataset.action_box) or None,
       poses=_plain(dataset.poses) or None,
-      action_norm=[{"gripper": dataset.gripper} for _ in arms],
+      action_norm=action_norm(dataset, arms),
     )
   except ValueError as e:
     raise UserError(f"{root}: {e}") from None

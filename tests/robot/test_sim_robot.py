@@ -81,8 +81,8 @@ def fitted(tmp_path_factory):
   export.write_lerobot(str(root / "demos"), [EpisodeSet(demos, 0)], {"env_name": toy.NAME})
   config = robot_config.config("smoke")
   config.policy.head = ml_collections.ConfigDict(dict(name="mlp", kwargs=dict(hidden=(32, 32))))  # (compiles fast)
-  config.dataset.update(path=str(root / "demos"), observations=tuple(f"observation.{k}" for k in KEYS),
-                        gripper="identity")  # fmt: skip
+  config.dataset.update(path=str(root / "demos"), observations=tuple(f"observation.{k}" for k in KEYS))
+  config.dataset.normalize.gripper = "identity"
   workdir = str(root / "run")
   run.fit(config, workdir, progress=False)
   return workdir
