@@ -27,8 +27,8 @@ COMMANDS = {
   "serve": "serve a checkpoint's policy to a robot over openpi's websocket protocol (modes, steering, recording)",
   "table1": "the paper's Table I (success, Pass@k, rollouts, jerk; before / after) from labelled robot episodes",
   "experts": "scripted demonstrations of a task, optionally saved to HDF5",
-  "export": "a run's data as robomimic HDF5, Diffusion Policy zarr or RLDS",
-  "inspect": "what a data file (HDF5, zarr, RLDS) holds",
+  "export": "a run's data as robomimic HDF5, Diffusion Policy zarr, RLDS or LeRobotDataset",
+  "inspect": "what a data file (HDF5, zarr, RLDS, LeRobotDataset) holds",
   "bench": "performance benchmarks: env, mjx, fit, encoder, sample, rollout, torch",
 }
 

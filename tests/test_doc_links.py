@@ -1,6 +1,7 @@
 """Every link into a section of the documents (`[text](RESULTS.md#a-heading)`, `[text](#a-heading)`)
 names a file that exists and a heading it has: a renamed heading breaks the README's links to the
-results silently otherwise."""
+results silently otherwise. Every relative link to a file (`[text](docs/guide.md)`, a picture's
+`![text](docs/steering.png)`) names one that exists, relative to the document that links it."""
 
 import glob
 import os
@@ -9,6 +10,7 @@ import re
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DOCS = ("README.md", "RESULTS.md", "BENCHMARKS.md", "DESIGN.md", "docs/*.md")
 LINK = re.compile(r"\]\(([^)#\s]*)#([^)\s]+)\)")
+FILE_LINK = re.compile(r"\]\(([^)#\s]+)(?:#[^)\s]*)?\)")  # (the file part of a link, its anchor aside)
 
 
 def anchors(path: str) -> set[str]:
@@ -41,4 +43,17 @@ def test_every_link_to_a_section_names_a_heading_of_its_file():
         path = os.path.normpath(os.path.join(os.path.dirname(doc), target)) if target else doc
         if not os.path.isfile(path) or anchor not in anchors(path):
           broken.append(f"{os.path.relpath(doc, ROOT)}: {target}#{anchor}")
+  assert links > 10 and broken == []
+
+
+def test_every_relative_link_names_a_file_that_exists():
+  links, broken = 0, []
+  for pattern in DOCS:
+    for doc in sorted(glob.glob(os.path.join(ROOT, pattern))):
+      for target in FILE_LINK.findall(open(doc).read()):
+        if "://" in target or target.startswith("mailto:"):
+          continue
+        links += 1
+        if not os.path.exists(os.path.normpath(os.path.join(os.path.dirname(doc), target))):
+          broken.append(f"{os.path.relpath(doc, ROOT)}: {target}")
   assert links > 10 and broken == []

@@ -9,8 +9,8 @@ The last line printed is one JSON object: task, num_episodes, success_rate, mean
 successful episodes), backend, seconds (and out, num_saved with --out; with --measure, `variety`: the
 share of arced approaches to each side, of each grasp face, the path length's coefficient of
 variation, the share that paused, length mean and std, and which thresholds of a varied demonstrator
-hold, `experts/variety.py`); with --workspace: task,
-num_episodes, seed, margin, commanded and box (per robot [lo, hi]), expert_success_rate.
+hold, `soe_jax/experts/variety.py`); with --workspace: task, num_episodes, seed, margin, commanded and
+box (per robot [lo, hi]), expert_success_rate.
 """
 
 from __future__ import annotations

@@ -1,12 +1,12 @@
-"""A run's data as robomimic HDF5, Diffusion Policy zarr or RLDS.
+"""A run's data as robomimic HDF5, Diffusion Policy zarr, RLDS or LeRobotDataset.
 
   python -m soe_jax export --workdir=DIR [--round=R] --format=robomimic|zarr|rlds|lerobot --out=PATH
 
 Exports the data the fit of round R (default: the run's last) trained on, as the loop gathers it:
 the demonstrations, the episodes each round up to R kept, and the steered episodes the fit took, each
 group under its own name (`demos`, `round_<r>`, `steered_<r>`; the formats: `soe_jax/data/export.py`).
-`robomimic` is one HDF5 file; `zarr` and `rlds` (the `zarr` and `rlds` extras) are directories.
-Prints where it wrote and the episodes of each group; `python -m soe_jax inspect PATH` reads it back.
+`robomimic` is one HDF5 file; `zarr`, `rlds` and `lerobot` (the `zarr`, `rlds` and `robot` extras)
+are directories. Prints where it wrote and the episodes of each group; `python -m soe_jax inspect PATH` reads it back.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ FLAGS.enum(
   list(export.FORMATS),
   "robomimic (HDF5), zarr (Diffusion Policy's replay buffer), rlds or lerobot (LeRobotDataset v3.0).",
 )
-FLAGS.string("out", None, "Where the file (robomimic) or the directory (zarr, rlds) goes.")
+FLAGS.string("out", None, "Where the file (robomimic) or the directory (zarr, rlds, lerobot) goes.")
 
 
 def _run(argv: list[str]) -> None:

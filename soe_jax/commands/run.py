@@ -3,14 +3,15 @@
   python -m soe_jax run --config=configs/square.py[:PRESETS] [--config.a.b=v] [--workdir=DIR]
 
 Presets: `smoke`, `cpu`, method `dp | sime | soe | soe_steer | control`, `head=NAME` and the others
-`experiment/presets.py` lists. The workdir defaults to `runs/<task>-<method>-seed<k>`, with a short hash
-of the fields the command changes from its config file's, so the same command names the same run:
-running it again resumes after the last finished phase (the first line printed says whether it
-starts, resumes or has finished). Round 0 (demonstrations, fit, evaluation) is written outside the
+`soe_jax/experiment/presets.py` lists. The workdir defaults to `runs/<task>-<method>-seed<k>`, with a
+short hash of the fields the command changes from its config file's, so the same command names the
+same run: running it again resumes after the last finished phase (the first line printed says whether
+it starts, resumes or has finished). Round 0 (demonstrations, fit, evaluation) is written outside the
 workdir, beside it: `DIR/../round0/<task>-<hash>/` (`--config.rounds.round0_dir` moves it), shared by
-every run there with the same round-0 settings, so deleting DIR keeps it. A mistake in the config is one line on stderr and exit status 2,
-before anything is written; Ctrl-C (or SIGTERM) stops with the finished phases and the fit in progress
-saved, and exit status 130. The last line printed is the run's summary as one JSON object.
+every run there with the same round-0 settings, so deleting DIR keeps it. A mistake in the config is
+one line on stderr and exit status 2, before anything is written; Ctrl-C (or SIGTERM) stops with the
+finished phases and the fit in progress saved, and exit status 130. The last line printed is the run's
+summary as one JSON object.
 """
 
 from __future__ import annotations

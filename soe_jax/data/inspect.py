@@ -1,8 +1,9 @@
 """What a data file holds (`python -m soe_jax inspect PATH`).
 
 PATH: a robomimic HDF5 file (this project's demonstrations, a round's kept episodes, an export, or
-robomimic's own), or an exported zarr store or RLDS dataset. Prints the episodes per group (filter key, or source
-round), their lengths, every key with its shape and dtype, and the provenance the file records.
+robomimic's own), or an exported zarr store, RLDS dataset or LeRobotDataset. Prints the episodes per
+group (filter key, or source round), their lengths, every key with its shape and dtype, and the
+provenance the file records.
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ def describe(path: str) -> str:
     f"{path}: {len(episodes)} episodes, {lengths.sum()} steps; length min {lengths.min()} / mean "
     f"{lengths.mean():.1f} / max {lengths.max()}; successful {sum(ep.get('success', True) for ep in episodes)}"
   ]
-  if os.path.isdir(path):  # zarr, RLDS: the groups their metadata records
+  if os.path.isdir(path):  # zarr, RLDS, LeRobotDataset: the groups their metadata records
     for s in sets:
       n = [len(ep["actions"]) for ep in s.episodes]
       lines.append(f"  {export.group_name(s)}: {len(n)} episodes, mean length {np.mean(n):.1f}")

@@ -1,13 +1,18 @@
 """What every command shares: `--help` exits 0 without import noise, a mistake is one `error:` line
 with exit status 2, and listing the commands imports neither JAX nor MuJoCo."""
 
+import importlib
 import os
+import re
 import subprocess
 import sys
 
 import pytest
 
 from soe_jax import __main__ as entry
+from soe_jax.commands import export as export_command
+from soe_jax.commands import run as run_command
+from soe_jax.data import export
 from soe_jax.runtime import cli
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -80,8 +85,38 @@ def test_mistakes_are_one_error_line_with_exit_2(capsys):
 
 
 def test_run_help_says_round_0_is_written_outside_the_workdir():
-  from soe_jax.commands import run
-
-  text = " ".join(cli.help_text(run.__doc__, run.FLAGS).split())
+  text = " ".join(cli.help_text(run_command.__doc__, run_command.FLAGS).split())
   assert "Round 0 (demonstrations, fit, evaluation) is written outside the workdir" in text, text
   assert "DIR/../round0/<task>-<hash>/" in text, text
+
+
+def _readme_commands() -> dict[str, str]:
+  """{command: its row} of the README's command table."""
+  rows = [line for line in open(os.path.join(ROOT, "README.md")) if line.startswith("| `")]
+  return {name: row for row in rows for name in re.findall(r"`(\w+)`", row.split("|")[1])}
+
+
+def test_the_readmes_command_table_names_every_command():
+  assert set(entry.COMMANDS) - set(_readme_commands()) == set()
+
+
+def test_export_help_the_listing_and_the_readme_name_the_same_formats():
+  """Each of export's formats by the name the documents give it, in `export --help`'s first line, the
+  command listing and the README's command table."""
+  names = {"robomimic": "robomimic HDF5", "zarr": "zarr", "rlds": "RLDS", "lerobot": "LeRobotDataset"}
+  assert set(names) == set(export.FORMATS)
+  places = {
+    "export --help": cli.help_text(export_command.__doc__, export_command.FLAGS).splitlines()[0],
+    "python -m soe_jax --help": entry.COMMANDS["export"],
+    "README.md": _readme_commands()["export"],
+  }
+  missing = [f"{place}: {name}" for place, text in places.items() for name in names.values() if name not in text]
+  assert missing == []
+
+
+@pytest.mark.parametrize("name", ["run", "experts", "export", "inspect"])
+def test_the_files_a_commands_help_names_exist(name):
+  """A path in a command's `--help` is from the repository's root (`soe_jax/experiment/presets.py`)."""
+  module = importlib.import_module(f"soe_jax.commands.{name}")
+  paths = re.findall(r"[\w/]+/\w+\.py\b", cli.help_text(module.__doc__, module.FLAGS))
+  assert [p for p in paths if not os.path.exists(os.path.join(ROOT, p))] == []
