@@ -28,7 +28,10 @@ FLAGS.string("host", "127.0.0.1", "Address to bind (other than loopback: reachab
 FLAGS.boolean("remote", False, "Allow --host to be an address other than loopback.")
 FLAGS.integer("port", 8000, "Port (0: any free one).", lower_bound=0)
 FLAGS.integer(
-  "seed", 0, "Sampling seed: request n of a connection's episode e samples with fold_in(fold_in(seed, e), n)."
+  "seed",
+  0,
+  "Sampling seed: request n of episode e samples with session.request_key(seed, instance, e, n), where the "
+  "instance is the microseconds since the epoch at start and e counts episodes over every connection.",
 )
 FLAGS.list("origin", [], "Browser origins allowed to connect (none by default; robots' clients send no Origin).")
 FLAGS.integer("max_message_mb", 16, "Largest frame accepted, in MiB.", lower_bound=1)
@@ -81,7 +84,8 @@ def _serve(argv: list[str]) -> None:
   server = PolicyServer(loaded.agent, loaded.spec, token, FLAGS.host, FLAGS.port, FLAGS.seed, tuple(FLAGS.origin),
                         FLAGS.max_message_mb << 20, modes, FLAGS.mode, rec, FLAGS.steer_timeout)  # fmt: skip
   print(f"serving on ws://{server.host}:{server.port} (action_horizon={loaded.policy.n_action_steps}, "
-        f"{loaded.spec.control_hz:g} Hz, modes {', '.join(modes.available)}, default {FLAGS.mode})", flush=True)  # fmt: skip
+        f"{loaded.spec.control_hz:g} Hz, modes {', '.join(modes.available)}, default {FLAGS.mode}; sampling keys "
+        f"seed {server.keys.seed}, instance {server.keys.instance})", flush=True)  # fmt: skip
   page_port = FLAGS.page_port if FLAGS.page_port is not None else (FLAGS.port + 1 if FLAGS.port else 0)
   if page_port >= 0:
     httpd = page.serve(server, FLAGS.host, page_port)

@@ -11,8 +11,10 @@ A labelled episode (success / failure; a discarded one is dropped) is saved loss
 written again from all of them (to a new directory, swapped in by rename): a crash leaves the last
 complete dataset. Per frame it holds the observations, the action sent (absolute), `next.success` on a
 successful episode's last frame, and the columns `mode` (index into `modes.MODES`), `robot_time` (the
-observation's timestamp) and `start_state` (the attempt group a person gave, -1 when none), which
-`refit.select=first_success` and `python -m soe_jax table1` group tries by.
+observation's timestamp), `start_state` (the attempt group a person gave, -1 when none), which
+`refit.select=first_success` and `python -m soe_jax table1` group tries by, and `request_key` (seed,
+instance, episode id, request: `session.request_key` of them is the key the frame's action was
+sampled with; -1s in episodes recorded before the column existed).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from soe_jax.data.spec import PolicySpec
 from soe_jax.serve.modes import MODES
 
 LABELS = ("success", "failure", "discard")
+NO_KEY = (-1, -1, -1, -1)  # a request's key ids, where none is known
 
 
 class LabelError(ValueError):
@@ -49,14 +52,15 @@ class Episode:
 
   def __init__(self, number: int, observation: dict, stamp: float, keep: bool = True):
     self.number, self.keep = number, keep  # keep: hold the frames (a server that records)
-    self.frames: list[tuple[dict, np.ndarray, float, int]] = []  # (observation, action, robot time, mode)
+    # (observation, action, robot time, mode, the request's key ids (seed, instance, episode, request))
+    self.frames: list[tuple[dict, np.ndarray, float, int, tuple]] = []
     self.current, self.current_time = observation, float(stamp)
-    self.pending = None  # (actions (Ta, A), mode index) of the last reply
+    self.pending = None  # (actions (Ta, A), mode index, key ids) of the last reply
     self.start_state = None  # the attempt group, when the robot names it at the end
     self.gaps: str | None = None  # why the frames are not every step's, if they are not
 
-  def sent(self, actions: np.ndarray, mode: str) -> None:
-    self.pending = (np.asarray(actions, np.float32), MODES.index(mode))
+  def sent(self, actions: np.ndarray, mode: str, key: tuple = NO_KEY) -> None:
+    self.pending = (np.asarray(actions, np.float32), MODES.index(mode), tuple(key))
 
   def advance(self, observations: list[dict], stamps: list[float], stacked: bool = True) -> None:
     """Close frames with the k observations taken after each of the last reply's first k actions
@@ -70,12 +74,12 @@ class Episode:
       if observations:
         raise LabelError("observations arrived with no reply before them")
       return
-    actions, mode = self.pending
+    actions, mode, key = self.pending
     if len(observations) > len(actions):
       raise LabelError(f"{len(observations)} observations since the last reply, which sent {len(actions)} actions")
     for action, obs, stamp in zip(actions, observations, stamps):
       if self.keep:
-        self.frames.append((self.current, action, self.current_time, mode))
+        self.frames.append((self.current, action, self.current_time, mode, key))
       self.current, self.current_time = obs, float(stamp)
     self.pending = None
 
@@ -95,6 +99,7 @@ class Episode:
         mode=np.asarray([f[3] for f in self.frames], np.int64),
         robot_time=np.asarray([f[2] for f in self.frames], np.float64),
         start_state=np.full(t, int(start_state), np.int64),
+        request_key=np.asarray([f[4] for f in self.frames], np.int64).reshape(t, 4),
       ),
     )
 
@@ -156,6 +161,8 @@ class Recorder:
           obs={k[4:]: z[k] for k in z.files if k.startswith("obs/")},
           actions=z["actions"], success=bool(z["success"]),
           columns={k[4:]: z[k] for k in z.files if k.startswith("col/")}))  # fmt: skip
+    for ep in episodes:  # (saved before the column existed: every episode's features must match)
+      ep["columns"].setdefault("request_key", np.full((len(ep["actions"]), 4), -1, np.int64))
     fresh = self.dataset + ".new"
     shutil.rmtree(fresh, ignore_errors=True)
     fps = self.spec.control_hz

@@ -51,14 +51,17 @@ class StaleChoice(ValueError):
 class PolicyServer:
   """`agent` served on `host`:`port` (0: any free port) to clients holding `token`, in `modes` (default
   `default_mode`), recording labelled episodes with `recorder` (None: not recording); a steer request
-  waits `steer_timeout` seconds for the page's choice."""
+  waits `steer_timeout` seconds for the page's choice. Sampling keys: `seed`, `instance` (None: the
+  microseconds since the epoch now) and an episode id counted over all connections (`session.Keys`)."""
 
   def __init__(self, agent: Agent, spec: PolicySpec, token: str, host: str = "127.0.0.1", port: int = 8000,
                seed: int = 0, origins: tuple[str, ...] = (), max_size: int = 16 << 20,
                modes: modes_lib.Modes | None = None, default_mode: str = "base",
-               recorder: recorder_lib.Recorder | None = None, steer_timeout: float = 30.0):  # fmt: skip
+               recorder: recorder_lib.Recorder | None = None, steer_timeout: float = 30.0,
+               instance: int | None = None):  # fmt: skip
     self.guard = Guard(token)  # (a server without a token is refused here, before anything compiles)
     self.agent, self.spec, self.token, self.seed = agent, spec, token, seed
+    self.keys = session_lib.Keys(seed, instance)  # shared by every connection: no two episodes share a key
     self.origins = tuple(origins)
     self.modes = modes if modes is not None else modes_lib.Modes(agent, spec)
     self.default_mode = self.modes.check(default_mode)
@@ -140,7 +143,7 @@ class PolicyServer:
 
   def _handle(self, connection: ws_server.ServerConnection) -> None:
     name = f"c{next(self._names)}"
-    session = session_lib.Session(self.agent, self.spec, self.seed, self.modes, self.default_mode, self._choose,
+    session = session_lib.Session(self.agent, self.spec, self.keys, self.modes, self.default_mode, self._choose,
                                   self.recorder, name)  # fmt: skip
     session.alive = lambda: connection.state is State.OPEN
     self.sessions[name] = session

@@ -24,12 +24,17 @@ base path for the same key and says so. `{"episode_end": true, "label": "success
 "discard" (or absent: the page labels it), "start_state": n (optional), <observations since>}` ends
 the episode; the reply is `{"recorded": ...}` (see `recorder.py`).
 
-The sampling key of request n of the connection's episode e is fold_in(fold_in(key(seed), e), n), so a
-fixed observation and key give the chunk the policy gives in-process (`request_key`).
+The sampling key of request n of episode e is `request_key(seed, instance, e, n)`: the server's seed,
+its instance (the microseconds since the epoch when it started, so a restarted server repeats no key)
+and the episode's id, counted over all the server's connections (so two connections never share one);
+`Keys` hands them out. The recorder writes each frame's (seed, instance, e, n), so a recorded chunk is
+sampled again from its recording: a fixed observation history and key give the chunk the policy gives
+in-process.
 """
 
 from __future__ import annotations
 
+import itertools
 import threading
 import time
 from collections.abc import Callable
@@ -55,8 +60,36 @@ class PolicyError(RuntimeError):
   """The policy's chunk is not fit to send (not finite, or outside the action box)."""
 
 
-def request_key(seed: int, episode: int, step: int) -> jax.Array:
-  return jax.random.fold_in(jax.random.fold_in(jax.random.key(seed), episode), step)
+def request_key(seed: int, instance: int, episode: int, request: int) -> jax.Array:
+  """The sampling key of request `request` of episode `episode` of the server started as `instance`
+  with `seed` (the 64-bit instance folded in as two 32-bit words)."""
+  key = jax.random.key(seed)
+  for word in (instance >> 32, instance & 0xFFFFFFFF, episode, request):
+    key = jax.random.fold_in(key, np.uint32(word))
+  return key
+
+
+class Keys:
+  """Where one server's sampling keys come from: its `seed`, its `instance` (default: the microseconds
+  since the epoch now, so a server restarted with the same seed repeats no key) and one count of
+  episodes over all its connections. Thread-safe."""
+
+  def __init__(self, seed: int = 0, instance: int | None = None):
+    self.seed = int(seed)
+    self.instance = time.time_ns() // 1000 if instance is None else int(instance)
+    if not 0 <= self.instance < 1 << 63:  # (the recording keeps it as an int64)
+      raise ValueError(f"instance {self.instance}: a whole number in [0, 2^63)")
+    self._episodes = itertools.count()
+    self._lock = threading.Lock()
+
+  def new_episode(self) -> int:
+    """The next episode's id, unique among this server's connections."""
+    with self._lock:
+      return next(self._episodes)
+
+  def ids(self, episode: int, request: int) -> tuple[int, int, int, int]:
+    """What `request_key` takes for request `request` of episode `episode` (the recorder writes it)."""
+    return self.seed, self.instance, int(episode), int(request)
 
 
 def _scalar(v):
@@ -138,15 +171,17 @@ Chooser = Callable[["Session", dict], "int | None"]
 class Session:
   """One connection: its episodes, observation history, requests' keys and recording."""
 
-  def __init__(self, agent: Agent, spec: PolicySpec, seed: int = 0, modes: Modes | None = None,
+  def __init__(self, agent: Agent, spec: PolicySpec, keys: Keys | None = None, modes: Modes | None = None,
                default_mode: str = "base", chooser: Chooser | None = None,
                recorder: recorder_lib.Recorder | None = None, name: str = "0"):  # fmt: skip
-    self.agent, self.spec, self.seed, self.name = agent, spec, int(seed), name
+    self.agent, self.spec, self.name = agent, spec, name
+    self.keys = keys if keys is not None else Keys()  # (a server's sessions share one)
     self.modes = modes if modes is not None else Modes(agent, spec)
     self.default_mode = self.modes.check(default_mode)
     self.chooser, self.recorder = chooser, recorder
     self.history = None
-    self.episode, self.step = -1, 0
+    self.episode, self.step = -1, 0  # the connection's episode (the page's number) and request in it
+    self.episode_id = -1  # the episode's id among the server's (its keys')
     self.bounds = spec.action_bounds()
     self.lock = threading.Lock()  # the page reads what follows while the connection's thread writes it
     self.log: recorder_lib.Episode | None = None  # the episode under way
@@ -191,12 +226,14 @@ class Session:
         log.advance(observations, stamps, stacked)
       except recorder_lib.LabelError as e:
         raise RequestError(str(e)) from None
+    episode_id = self.keys.new_episode() if new else self.episode_id
     with self.lock:
       if new:
-        self.episode, self.step, self.trail = self.episode + 1, 0, []
+        self.episode, self.step, self.trail, self.episode_id = self.episode + 1, 0, [], episode_id
       self.history, self.log, self.latest, self.mode = history, log, observations[-1], mode
       self.cameras = {k: observations[-1][k] for k in self.spec.image_keys} | extra_cameras(self.spec, obs)
-    key = request_key(self.seed, self.episode, self.step)
+    ids = self.keys.ids(self.episode_id, self.step)
+    key = request_key(*ids)
     self.step += 1
     steering, actions = None, None
     if mode == "steer":
@@ -215,7 +252,7 @@ class Session:
       path = "base" if mode == "steer" else mode
       actions = np.asarray(jax.device_get(self.modes(path, self.agent, history, key))[0], np.float32)
     self.check(actions)
-    log.sent(actions, mode)
+    log.sent(actions, mode, ids)
     with self.lock:
       self.trail.extend(actions)
     reply = {"actions": actions, "timestamps": float(stamp) + dt * np.arange(len(actions), dtype=np.float64)}
@@ -302,7 +339,7 @@ def zero_history(agent: Agent, spec: PolicySpec):
 def warm_up(agent: Agent, spec: PolicySpec, modes: Modes | None = None) -> None:
   """Compile every mode's chunk for one observation history (before a server listens)."""
   modes = modes if modes is not None else Modes(agent, spec)
-  modes.warm_up(agent, zero_history(agent, spec), request_key(0, 0, 0))
+  modes.warm_up(agent, zero_history(agent, spec), request_key(0, 0, 0, 0))
 
 
 def metadata(spec: PolicySpec, agent: Agent, modes: Modes | None = None, default_mode: str = "base") -> dict:

@@ -84,7 +84,7 @@ def main(argv: list[str]) -> None:
     """Serve round r; drive it with observations of fresh episodes; return the recorded episodes, one
     reply and the in-process chunk for the same observation and key."""
     loaded = checkpoint.load(os.path.join(run_dir, "rounds", str(r), "ckpt"))
-    server = PolicyServer(loaded.agent, loaded.spec, token, port=0).start()
+    server = PolicyServer(loaded.agent, loaded.spec, token, port=0, instance=0).start()
     try:
       rec, first = [], None
       with ws_client.connect(
@@ -106,7 +106,7 @@ def main(argv: list[str]) -> None:
     x = session.policy_input(loaded.spec, obs)
     history = agent_lib.initial_history(x, loaded.policy.n_obs_steps)
     agent = loaded.agent  # the base path's program, as the server compiles it (otherwise XLA fuses differently: ~1e-5)
-    inproc = np.asarray(Modes(agent, loaded.spec)("base", agent, history, session.request_key(0, 0, 0)))[0]
+    inproc = np.asarray(Modes(agent, loaded.spec)("base", agent, history, session.request_key(0, 0, 0, 0)))[0]
     return rec, replied, inproc
 
   recorded, replied0, inproc0 = serve_and_record(0, True)

@@ -57,6 +57,7 @@ class Served:
     self.port = int(re.search(r"ws://127\.0\.0\.1:(\d+)", "".join(lines)).group(1))
     self.page = int(re.search(r"page: http://127\.0\.0\.1:(\d+)", "".join(lines)).group(1))
     self.token = lines[-1].split()[1]
+    self.instance = int(re.search(r"sampling keys seed \d+, instance (\d+)", "".join(lines)).group(1))
 
   def connect(self, token=None):
     headers = {"Authorization": f"Api-Key {token or self.token}"}
@@ -134,7 +135,8 @@ def test_the_simulator_as_the_robot(fitted, tmp_path):
   loaded = checkpoint.load(ckpt)
   x = session.policy_input(loaded.spec, {f"observation.{k}": v for k, v in obs.items()})
   history = agent_lib.initial_history(x, loaded.policy.n_obs_steps)
-  base = Modes(loaded.agent, loaded.spec)("base", loaded.agent, history, session.request_key(0, 0, 0))
+  key = session.request_key(0, server.instance, 0, 0)
+  base = Modes(loaded.agent, loaded.spec)("base", loaded.agent, history, key)
   np.testing.assert_allclose(served, np.asarray(base)[0], atol=1e-6)  # the server's own program, in-process
   assert served.shape == (ta, 10)
 

@@ -37,10 +37,10 @@ def test_each_mode_gives_its_own_path(served):
   rng = np.random.default_rng(0)
   o = _obs(rng)
   history = agent_lib.initial_history(session.policy_input(spec, o), agent.policy.n_obs_steps)
-  key = session.request_key(0, 0, 0)
+  key = session.request_key(0, 0, 0, 0)
   got = {}
   for mode in ("base", "soe", "sime"):
-    s = session.Session(agent, spec, modes=modes)
+    s = session.Session(agent, spec, session.Keys(0, 0), modes=modes)
     got[mode] = s.infer(dict(o, mode=mode, episode_start=True))["actions"]
   np.testing.assert_allclose(got["base"], np.asarray(agent.act(history, key))[0], atol=1e-6)
   soe = agent.executed(agent.explore_chunk(history, key, 2.0)[0])
@@ -64,8 +64,9 @@ def test_steering_sends_the_chosen_proposal_or_the_base_path_on_timeout(served):
   assert np.asarray(steering["proposals"]).shape == (4, agent.policy.n_action_steps, 10)
   assert steering["dim_of"] == [0, 0, 2, 2] and reply["steering"]["chosen"] == 3
   np.testing.assert_allclose(reply["actions"], np.asarray(steering["proposals"][3], np.float32))
-  timed_out = session.Session(agent, spec, modes=modes, chooser=lambda s, st: None).infer(dict(o, mode="steer"))
-  base = session.Session(agent, spec, modes=modes).infer(o)
+  keys = session.Keys()
+  timed_out = session.Session(agent, spec, keys, modes=modes, chooser=lambda s, st: None).infer(dict(o, mode="steer"))
+  base = session.Session(agent, spec, session.Keys(keys.seed, keys.instance), modes=modes).infer(o)
   assert timed_out["steering"]["timed_out"] and timed_out["steering"]["chosen"] is None
   np.testing.assert_allclose(timed_out["actions"], base["actions"])
 

@@ -72,7 +72,7 @@ def test_openpi_client_gets_the_in_process_chunks_step_by_step():
   agent = _agent(spec)
   to, ta = agent.policy.n_obs_steps, agent.policy.n_action_steps
   states = np.random.default_rng(2).normal(size=(2 * ta, 7)).astype(np.float32)  # two chunks' worth of steps
-  server = PolicyServer(agent, spec, TOKEN, port=0).start()
+  server = PolicyServer(agent, spec, TOKEN, port=0, instance=0).start()
   try:
     args = json.dumps(dict(port=server.port, token=TOKEN, states=states.tolist()))
     r = subprocess.run([python, "-c", CLIENT], input=args, capture_output=True, text=True, timeout=180)
@@ -92,13 +92,13 @@ def test_openpi_client_gets_the_in_process_chunks_step_by_step():
   steps = out["steps"]
   assert len(steps) == 2 * ta
   for query, history in enumerate([first, second]):
-    expected = np.asarray(agent.executed(agent.chunk(history, session.request_key(0, 0, query))))[0]
+    expected = np.asarray(agent.executed(agent.chunk(history, session.request_key(0, 0, 0, query))))[0]
     got = np.array([s["actions"] for s in steps[query * ta : (query + 1) * ta]], np.float32)
     np.testing.assert_allclose(got, expected, atol=1e-6)
   # had the server seen every observation, its second history would end with obs Ta-1, Ta: not what it replied
   if to > 1:
     every = agent_lib.push_history(agent_lib.initial_history(states[ta - 1][None], to), states[ta][None])
-    wrong = np.asarray(agent.executed(agent.chunk(every, session.request_key(0, 0, 1))))[0]
+    wrong = np.asarray(agent.executed(agent.chunk(every, session.request_key(0, 0, 0, 1))))[0]
     assert not np.allclose(np.array([s["actions"] for s in steps[ta:]]), wrong, atol=1e-6)
   for i, s in enumerate(steps):
     assert s["dtype"] == "float32" and s["shape"] == [10] and "infer_ms" in s["timing"]

@@ -40,7 +40,7 @@ def _agent(spec: PolicySpec, box=None) -> Agent:
 def served():
   spec = PolicySpec.from_dict(SPEC)
   agent = _agent(spec)
-  server = PolicyServer(agent, spec, TOKEN, port=0).start()
+  server = PolicyServer(agent, spec, TOKEN, port=0, instance=0).start()
   yield server, agent, spec
   server.shutdown()
 
@@ -68,7 +68,7 @@ def test_replies_are_chunk_first_and_equal_the_in_process_chunk(served):
   for i, (o, r) in enumerate(zip(observations, replies)):
     if i:
       history = agent_lib.push_history(history, o[None])
-    expected = np.asarray(agent.executed(agent.chunk(history, session.request_key(0, 0, i))))[0]
+    expected = np.asarray(agent.executed(agent.chunk(history, session.request_key(0, 0, 0, i))))[0]
     assert r["actions"].shape == (ta, 10) and r["actions"].dtype == np.float32
     np.testing.assert_allclose(r["actions"], expected, atol=1e-6)
     np.testing.assert_allclose(r["timestamps"], 100.0 + i + np.arange(ta) / 10.0)
