@@ -5,7 +5,9 @@ A workdir holds `config.json`, `spec.json`, and per round r `rounds/<r>/ckpt` (w
 `rounds/<r>/fit.json` (the fit's record: steps, loss curve, episodes by source, the latent's SNR per
 dimension over the fit's data, which the server's steering reads) and for r >= 1
 `rounds/<r>/data.json` (the recorded dataset and the episodes taken from it). Round r's fit trains on
-the demonstrations and every episode rounds 1..r took, read again from their datasets. Everything is
+the demonstrations and every episode rounds 1..r took, read again from their datasets. A re-fit may
+override the run's `refit` fields and keep only some modes' episodes (`episode_modes`); its fit.json
+records both, with the `refit` fields it used. Everything is
 checked before anything is written; a fit stopped midway resumes where it was saved (`fit.checkpoint_every`)
 when the same command runs again, to the same parameters; keys are fold_in(seed, round, stream).
 """
@@ -15,11 +17,14 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+from collections import Counter
 
 import jax
 import jax.numpy as jnp
 import ml_collections
+from absl import logging
 
+from soe_jax.analysis.labelled import episode_mode
 from soe_jax.data import spec as spec_lib
 from soe_jax.data.episodes import EpisodeSet, build_buffer
 from soe_jax.experiment import action_box
@@ -28,12 +33,14 @@ from soe_jax.policies.agent import Agent
 from soe_jax.robot import dataset as dataset_lib
 from soe_jax.runtime import atomic, interrupt
 from soe_jax.runtime.errors import UserError
+from soe_jax.serve.modes import MODES
 from soe_jax.train import checkpoint, normalization, train_state
 from soe_jax.train import fit as fit_lib
 from soe_jax.train.partial import PartialFit
 
 SELECTIONS = ("all_successes", "first_success")
 REFIT_MODES = ("continue", "scratch")
+EPISODE_MODES = (*MODES, "recorded")  # a recorded episode's mode (`analysis.labelled.episode_mode`)
 _INIT, _FIT, _SNR = 0, 1, 2  # key streams
 SNR_WINDOWS = 2048  # observation histories the stored SNR is measured over (as `soe_steer`'s)
 
@@ -85,9 +92,10 @@ def _prepared(config: ml_collections.ConfigDict, progress: bool):
   return config, spec, policy, demos
 
 
-def _fit(config, spec, policy, sets, r: int, workdir: str, norm, init_state, progress: bool, paths: dict) -> dict:
+def _fit(config, spec, policy, sets, r: int, workdir: str, norm, init_state, progress: bool, paths: dict,
+         extra: dict | None = None) -> dict:  # fmt: skip
   """Round r's fit on `sets` (read from the datasets `paths` {source: path}), saved to rounds/<r>/ckpt
-  with its record -> the record."""
+  with its record (and `extra` in it) -> the record."""
   rdir = _round_dir(workdir, r)
   record_path = os.path.join(rdir, "fit.json")
   if os.path.exists(record_path):
@@ -138,6 +146,7 @@ def _fit(config, spec, policy, sets, r: int, workdir: str, norm, init_state, pro
     episodes_by_source={str(s.source): len(s.episodes) for s in sets},
     actions_clipped=clipped,
     snr_db=snr,
+    **(extra or {}),
   )
   atomic.write_json(record_path, record)  # last: the round is done
   return record
@@ -191,16 +200,54 @@ def select(episodes: list[dict], rule: str, root: str) -> list[dict]:
   return out
 
 
-def refit(workdir: str, recorded: str, progress: bool = True, mode: str | None = None) -> dict:
-  """The next round of the robot run in `workdir`: the episodes of the LeRobotDataset `recorded`
-  labelled successful (`refit.select`) added to the data, re-fitted (`refit.mode`, or `mode`) -> the
-  round's record. Running it again after an interruption continues the same round."""
+def saved_config(workdir: str) -> ml_collections.ConfigDict:
+  """The config `fit` saved in `workdir` (UserError where there is none)."""
   saved = os.path.join(workdir, "config.json")
   if not os.path.exists(saved):
     raise UserError(f"{workdir} has no fitted robot policy ({saved} is missing): run `fit` first")
-  config = ml_collections.ConfigDict(atomic.read_json(saved))
+  return ml_collections.ConfigDict(atomic.read_json(saved))
+
+
+def by_mode(episodes: list[dict], modes: list[str] | None, root: str) -> list[dict]:
+  """The recorded episodes of `modes` (None: every one, with a warning when the recording mixes modes,
+  since a re-fit would pool, say, SOE's successes with SIME's)."""
+  mode_of = [episode_mode(ep["columns"]) for ep in episodes]
+  if modes is None:
+    if len(set(mode_of)) > 1:
+      counts = Counter(mode_of)
+      wins = Counter(m for m, ep in zip(mode_of, episodes) if ep["success"])
+      each = "; ".join(f"{m}: {n} episodes, {wins[m]} success{'es' if wins[m] != 1 else ''}"
+                       for m, n in sorted(counts.items()))  # fmt: skip
+      logging.warning("%s mixes modes (%s); the re-fit takes the successes of every one. `refit --episode_modes=MODE` "
+                      "keeps one mode's", root, each)  # fmt: skip
+    return episodes
+  unknown = [m for m in modes if m not in EPISODE_MODES]
+  if unknown:
+    raise UserError(f"--episode_modes: unknown mode {unknown[0]!r}; known: {', '.join(EPISODE_MODES)}")
+  kept = [ep for m, ep in zip(mode_of, episodes) if m in modes]
+  if not kept:
+    have = ", ".join(f"{m} {n}" for m, n in sorted(Counter(mode_of).items()))
+    raise UserError(f"{root}: no episode of mode {', '.join(modes)}; its episodes' modes: {have}")
+  return kept
+
+
+def refit(workdir: str, recorded: str, progress: bool = True, mode: str | None = None,
+          overrides: dict | None = None, episode_modes: list[str] | None = None) -> dict:  # fmt: skip
+  """The next round of the robot run in `workdir`: the episodes of the LeRobotDataset `recorded`
+  (those of `episode_modes`, default all) labelled successful (`refit.select`) added to the data,
+  re-fitted (`refit.mode`, or `mode`) -> the round's record. `overrides` {"refit.<field>": value}
+  change the run's re-fit fields for this round (recorded in its fit.json). Running it again after
+  an interruption continues the same round, with the same overrides."""
+  config = saved_config(workdir)
+  overrides = dict(overrides or {})
   if mode is not None:
-    config.refit.mode = mode
+    overrides["refit.mode"] = mode
+  fields = sorted(f"refit.{k}" for k in config.refit)
+  for name in overrides:
+    if name not in fields:
+      raise UserError(f"{name}: not a re-fit field of the run; its re-fit fields: {', '.join(fields)}")
+  config.update_from_flattened_dict(overrides)
+  episode_modes = list(episode_modes) if episode_modes else None
   _check(config)
   spec = spec_lib.load(workdir)
   last = last_round(workdir)
@@ -210,8 +257,14 @@ def refit(workdir: str, recorded: str, progress: bool = True, mode: str | None =
   rdir = _round_dir(workdir, r)
   data_path = os.path.join(rdir, "data.json")
   recorded = os.path.abspath(recorded)
-  if os.path.exists(data_path) and atomic.read_json(data_path)["dataset"] != recorded:
-    raise UserError(f"{workdir}: round {r} is under way with {atomic.read_json(data_path)['dataset']}; finish it first")
+  choices = dict(overrides=overrides, episode_modes=episode_modes)
+  if os.path.exists(data_path):
+    under_way = atomic.read_json(data_path)
+    if under_way["dataset"] != recorded:
+      raise UserError(f"{workdir}: round {r} is under way with {under_way['dataset']}; finish it first")
+    was = {k: under_way.get(k, {} if k == "overrides" else None) for k in choices}
+    if was != choices:
+      raise UserError(f"{workdir}: round {r} is under way with {was}; finish it with the same (now {choices})")
   _, demos = dataset_lib.read(config.dataset.path, config.dataset, progress=progress)
   sets, paths = [EpisodeSet(demos, 0)], {0: config.dataset.path, r: recorded}
   for q in range(1, r):
@@ -222,13 +275,15 @@ def refit(workdir: str, recorded: str, progress: bool = True, mode: str | None =
   rec_spec, episodes = dataset_lib.read(recorded, config.dataset, progress=progress)
   if rec_spec.to_dict() != spec.to_dict():
     raise UserError(f"{recorded}: its spec differs from the policy's ({os.path.join(workdir, spec_lib.SPEC_FILE)})")
-  taken = select(episodes, config.refit.select, recorded)
+  taken = select(by_mode(episodes, episode_modes, recorded), config.refit.select, recorded)
   if not taken:
     raise UserError(f"{recorded}: none of its {len(episodes)} episodes is labelled successful; nothing to add")
   loaded = checkpoint.load(os.path.join(_round_dir(workdir, last), "ckpt"))
   os.makedirs(rdir, exist_ok=True)
   atomic.write_json(data_path, dict(dataset=recorded, fingerprint=_fingerprint(recorded), select=config.refit.select,
-                                    recorded=len(episodes), episodes=[ep["episode_index"] for ep in taken]))  # fmt: skip
+                                    recorded=len(episodes), episodes=[ep["episode_index"] for ep in taken],
+                                    **choices))  # fmt: skip
   sets.append(EpisodeSet(taken, r))
   norm = loaded.state.normalizer  # the statistics stay those of the demonstrations
-  return _fit(config, spec, loaded.policy, sets, r, workdir, norm, loaded.state, progress, paths)
+  extra = dict(choices, refit=config.refit.to_dict())
+  return _fit(config, spec, loaded.policy, sets, r, workdir, norm, loaded.state, progress, paths, extra)

@@ -1,0 +1,96 @@
+"""`refit` through its command line: `--config.refit.<field>` overrides the run's re-fit fields and is
+recorded in the round's fit.json; `--episode_modes` keeps one mode's episodes of a recording that
+mixes modes, which without it is taken whole with a warning; mistakes are one line and write nothing."""
+
+import json
+import logging
+import os
+import shutil
+
+import ml_collections
+import numpy as np
+import pytest
+
+from soe_jax import __main__ as entry
+from soe_jax.data import lerobot
+from soe_jax.robot import config as robot_config
+from soe_jax.robot import run
+from soe_jax.serve.modes import MODES
+from tests.robot import synthetic
+
+# The recording: SOE episodes (success, failure, success) and SIME episodes (success, failure).
+RECORDED = [("soe", True), ("soe", False), ("soe", True), ("sime", True), ("sime", False)]
+
+
+@pytest.fixture(scope="module")
+def fitted(tmp_path_factory):
+  root = tmp_path_factory.mktemp("refit")
+  rng = np.random.default_rng(0)
+  lerobot.write_dataset(str(root / "demos"), synthetic.episodes(rng, 4, 24, False), fps=10)
+  config = robot_config.config("smoke")
+  config.policy.head = ml_collections.ConfigDict(dict(name="mlp", kwargs=dict(hidden=(32, 32))))  # (compiles fast)
+  config.dataset.update(path=str(root / "demos"))
+  run.fit(config, str(root / "run"), progress=False)
+  episodes = synthetic.episodes(rng, len(RECORDED), 16, False, [s for _, s in RECORDED])
+  for ep, (mode, _) in zip(episodes, RECORDED):
+    ep["columns"] = {"mode": np.full(16, MODES.index(mode), np.int64)}
+  lerobot.write_dataset(str(root / "recorded"), episodes, fps=10)
+  return str(root / "run"), str(root / "recorded")
+
+
+def _copy(fitted, tmp_path) -> str:
+  workdir = str(tmp_path / "run")
+  shutil.copytree(fitted[0], workdir)
+  return workdir
+
+
+def _refit(workdir, recorded, *flags):
+  entry.main(["soe_jax", "refit", f"--workdir={workdir}", f"--episodes={recorded}", "--noprogress", *flags])
+
+
+def test_refit_overrides_its_fields_and_keeps_one_modes_episodes(fitted, tmp_path, capsys, caplog):
+  workdir = _copy(fitted, tmp_path)
+  with caplog.at_level(logging.WARNING):
+    _refit(workdir, fitted[1], "--config.refit.steps=7", "--config.refit.lr=1e-4", "--episode_modes=soe")
+  assert "mixes modes" not in caplog.text
+  record = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+  saved = json.load(open(os.path.join(workdir, "rounds", "1", "fit.json")))
+  assert saved["steps"] == record["steps"] == 7 and len(saved["loss_curve"]) > 0
+  assert saved["overrides"] == {"refit.steps": 7, "refit.lr": 1e-4}
+  assert saved["refit"] == dict(robot_config.config("smoke").refit.to_dict(), steps=7, lr=1e-4)
+  assert saved["episode_modes"] == ["soe"] and saved["episodes_by_source"] == {"0": 4, "1": 2}
+  data = json.load(open(os.path.join(workdir, "rounds", "1", "data.json")))
+  assert data["episodes"] == [0, 2] and data["episode_modes"] == ["soe"]
+  # The run's own config is as `fit` saved it: an override is the round's, recorded with it.
+  assert json.load(open(os.path.join(workdir, "config.json")))["refit"]["steps"] == 20
+
+
+def test_a_mixed_recording_is_taken_whole_with_a_warning(fitted, tmp_path, caplog):
+  workdir = _copy(fitted, tmp_path)
+  with caplog.at_level(logging.WARNING):
+    record = run.refit(workdir, fitted[1], progress=False)
+  assert record["episodes_by_source"] == {"0": 4, "1": 3} and record["overrides"] == {}
+  assert "mixes modes" in caplog.text and "soe: 3 episodes, 2 successes" in caplog.text
+  assert "sime: 2 episodes, 1 success" in caplog.text and "--episode_modes" in caplog.text
+
+
+@pytest.mark.parametrize(
+  "flag, message",
+  [
+    (
+      "--config.refit.stepz=5",
+      "refit.stepz: not a re-fit field of the run; its re-fit fields: refit.ema, refit.lr, refit.mode",
+    ),
+    ("--config.fit.lr=0.1", "fit.lr: not a re-fit field of the run"),
+    ("--config.refit.steps=many", "refit.steps"),
+    ("--episode_modes=explore", "--episode_modes: unknown mode 'explore'; known: base, soe, sime, steer, recorded"),
+    ("--episode_modes=steer", "no episode of mode steer; its episodes' modes: sime 2, soe 3"),
+  ],
+)
+def test_refit_mistakes_are_one_line_and_write_nothing(fitted, tmp_path, capsys, flag, message):
+  workdir = _copy(fitted, tmp_path)
+  with pytest.raises(SystemExit) as e:
+    _refit(workdir, fitted[1], flag)
+  err = capsys.readouterr().err
+  assert e.value.code == 2 and err.startswith("error: ") and message in err, err
+  assert not os.path.exists(os.path.join(workdir, "rounds", "1"))
