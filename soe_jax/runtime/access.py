@@ -18,8 +18,15 @@ TOKEN_VARIABLE = "SOE_JAX_SERVE_TOKEN"  # a fixed token instead of a random one 
 
 
 def new_token(environ: dict | None = None) -> str:
+  """`SOE_JAX_SERVE_TOKEN`, or a random URL-safe token that does not start with `-` (which clients'
+  `--token VALUE` would read as a flag)."""
   environ = os.environ if environ is None else environ
-  return environ.get(TOKEN_VARIABLE) or secrets.token_urlsafe(24)
+  if environ.get(TOKEN_VARIABLE):
+    return environ[TOKEN_VARIABLE]
+  token = secrets.token_urlsafe(24)
+  while token.startswith("-"):  # (one in 64; drawn again, so every other token stays as likely)
+    token = secrets.token_urlsafe(24)
+  return token
 
 
 def check_bind(host: str, remote: bool) -> str | None:

@@ -29,3 +29,12 @@ def test_the_guard_refuses_strangers():
   assert anywhere.refusal({"Host": "10.0.0.7:8001"})[0] == 401
   with pytest.raises(ValueError):
     access.Guard("")
+
+
+def test_a_token_never_starts_with_a_dash(monkeypatch):
+  """`--token VALUE` in the usual clients reads a value starting with `-` as another flag; token_urlsafe
+  starts one token in 64 so."""
+  assert not any(access.new_token({}).startswith("-") for _ in range(2000))
+  drawn = iter(["-a1", "-b2", "c3"])
+  monkeypatch.setattr(access.secrets, "token_urlsafe", lambda n: next(drawn))
+  assert access.new_token({}) == "c3"
