@@ -98,7 +98,20 @@ def _improvement(s: dict) -> str:
     return "-"
   rel = s["improvement_rel"]
   abs_ = f"{100 * s['improvement_abs']:+.1f} pts"
-  return abs_ if rel is None else f"{100 * rel:+.1f}% ({abs_})"
+  return f"undefined: 0% before ({abs_})" if rel is None else f"{100 * rel:+.1f}% ({abs_})"
+
+
+def _round_wall_lines(s: dict) -> list[str]:
+  """The summary's `round_wall_s`, labelled: one round's wall time."""
+  if "round_wall_s" not in s:
+    return []
+  rounds = [r for r in s["rounds"] if r > 0]
+  over = f"round {rounds[0]}" if len(rounds) == 1 else f"the mean over rounds {rounds[0]} to {rounds[-1]}"
+  return [
+    f"One round's wall time (explore, re-fit, evaluate; {over}): {s['round_wall_s']:.0f} s (`round_wall_s` in the "
+    "summary).",
+    "",
+  ]
 
 
 def _paired_with_round0(evaluated: dict, rounds: list[int]) -> list[str]:
@@ -156,6 +169,7 @@ def _write(workdir: str) -> dict:
     "Pass@k, jerk and rollouts: the first exploration round (from the shared round-0 policy). Success: the base "
     "path on the fixed evaluation start states, with its 95% Wilson interval and episode count.",
     "",
+    *_round_wall_lines(s),
     *_paired_with_round0(outcomes["evaluate"], s["rounds"]),
     "## Per round",
     "",
@@ -208,26 +222,38 @@ def _plots(workdir: str, s: dict) -> None:
   ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1))
   fig.tight_layout()
   _save(fig, os.path.join(workdir, "success.png"))
+  fig = exploration_figure(s)
+  if fig is not None:  # (None: nothing explored, no exploration figure)
+    _save(fig, os.path.join(workdir, "exploration.png"))
+
+
+def exploration_figure(s: dict) -> Figure | None:
+  """Rollouts and Pass@k per round of the summary `s` (None when no round explored)."""
+  rounds = s["rounds"]
   ex_rounds = [r for r, p in zip(rounds, s["pass_at_k_per_round"]) if p is not None]
-  if not ex_rounds:  # nothing explored: no exploration figure
-    return
+  if not ex_rounds:
+    return None
   fig = Figure(figsize=(10, 6))
   ax1 = fig.subplots()
   k = s.get("k", 5)
   rollouts = [s["rollouts_per_round"][rounds.index(r)] for r in ex_rounds]
-  lines = ax1.plot(ex_rounds, rollouts, "o-", color="C0", label="rollouts (sum over start states)")
+  counted = f"rollouts: each start state's tries up to its first success ({k} without one), summed over start states"
+  lines = ax1.plot(ex_rounds, rollouts, "o-", color="C0", label=counted)
   ax1.set_ylim(0, 1.05 * max(rollouts))  # from 0: a constant count does not fill the axis
   ax2 = ax1.twinx()
   passes = [100 * s["pass_at_k_per_round"][rounds.index(r)] for r in ex_rounds]
   lines += ax2.plot(ex_rounds, passes, "s--", color="C1", label=f"Pass@{k}")
   ax2.set_ylabel(f"Pass@{k} (%)", color="C1")
   ax2.set_ylim(-3, 103)
+  for ax, ys, fmt, color in ((ax1, rollouts, "{:.0f}", "C0"), (ax2, passes, "{:.0f}%", "C1")):  # (one round: two dots)
+    for x, y in zip(ex_rounds, ys):
+      ax.annotate(fmt.format(y), (x, y), textcoords="offset points", xytext=(8, 0), va="center", color=color)
   ax1.set_xticks(ex_rounds)
-  ax1.legend(lines, [line.get_label() for line in lines], loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2)
+  ax1.legend(lines, [line.get_label() for line in lines], loc="upper center", bbox_to_anchor=(0.5, -0.1))
   ax1.set(xlabel="round", title=f"{s['task']} {s['method']}: exploration")
   ax1.set_ylabel("rollouts (sum over start states)", color="C0")
   fig.tight_layout()
-  _save(fig, os.path.join(workdir, "exploration.png"))
+  return fig
 
 
 def _save(fig: Figure, path: str) -> None:

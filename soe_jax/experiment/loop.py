@@ -103,6 +103,10 @@ def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
   starts, resumes or has finished."""
   validation.check(config)
   with opened(config, workdir, progress) as exp:
+    if rundir.finished(workdir, config):  # nothing left to run (no round headers, no time left) but
+      for r in range(int(config.rounds.num_rounds) + 1):  # the videos a kill may have left undrawn
+        exp.videos(r)
+      return
     clock = runlog.RoundClock(int(config.rounds.num_rounds))
     clock.begin(0)
     demos, norm, state = round0(exp)

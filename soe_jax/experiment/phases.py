@@ -182,8 +182,8 @@ class Experiment:
         n = done // int(c.fit.chunk_size)
         if done == start + 2 * int(c.fit.chunk_size) and done < steps:  # the first chunk compiled; the second ran
           pace = history[-1]["chunk_s"] / int(c.fit.chunk_size)
-          print(f"round {r} fit: {1000 * pace:.0f} ms per step, about {runlog.duration(pace * (steps - done))} left "
-                f"of {steps:,} steps", flush=True)  # fmt: skip
+          runlog.between_bars(f"round {r} fit: {1000 * pace:.0f} ms per step, about "
+                              f"{runlog.duration(pace * (steps - done))} left of {steps:,} steps")  # fmt: skip
         if eval_every and (n % eval_every == 0 or done == steps):
           t = time.perf_counter()
           # Round 0's key in every round: the curves of a fit and of its continuation are paired.

@@ -146,13 +146,19 @@ def default_workdir(config: ml_collections.ConfigDict, spec: str) -> str:
   return os.path.join("runs", name)
 
 
+def finished(workdir: str, config: ml_collections.ConfigDict) -> bool:
+  """Whether the run in `workdir` has evaluated the last round `config` asks for."""
+  done = runlog.read_metrics(workdir) if os.path.exists(os.path.join(workdir, CONFIG_FILE)) else []
+  return bool(done) and (done[-1]["round"], done[-1]["phase"]) == (int(config.rounds.num_rounds), "evaluate")
+
+
 def status(workdir: str, config: ml_collections.ConfigDict) -> str:
   """Whether running `config` in `workdir` starts, resumes (after which phase) or finds it finished."""
   done = runlog.read_metrics(workdir)
   if not os.path.exists(os.path.join(workdir, CONFIG_FILE)):
     return "starting"
   last = done[-1] if done else None
-  if last and (last["round"], last["phase"]) == (int(config.rounds.num_rounds), "evaluate"):
+  if finished(workdir, config):
     return f"already finished ({last['round']} rounds); rewriting its report"
   said = f"resuming after round {last['round']} {last['phase']}" if last else "resuming round 0"
   fitting = 0 if last is None else last["round"] if last["phase"] == "explore" else None  # the next fit

@@ -13,6 +13,7 @@ import uuid
 
 import jax
 import numpy as np
+import tqdm
 from tensorboardX import SummaryWriter
 
 from soe_jax.runtime import faults, hosts, provenance
@@ -217,6 +218,20 @@ class WandbLog:
     self.run.finish()
 
 
+def between_bars(text: str) -> None:
+  """Print `text` as a line of its own while a progress bar (tqdm's, on stderr) may be drawn: on a
+  terminal the bar is cleared and drawn again below it; elsewhere (output to a file, where a bar's
+  carriage returns erase nothing) the bar's line is ended first, so the text does not run on from it."""
+  if sys.stderr.isatty():
+    tqdm.tqdm.write(text)
+    sys.stdout.flush()
+    return
+  if any(not bar.disable for bar in list(getattr(tqdm.tqdm, "_instances", ()))):
+    sys.stderr.write("\n")
+    sys.stderr.flush()
+  print(text, flush=True)
+
+
 def duration(seconds: float) -> str:
   """73.4 -> '1m13s'; 4000 -> '1h06m'."""
   minutes, seconds = divmod(int(round(seconds)), 60)
@@ -252,7 +267,8 @@ def round_estimate(config, fit0: dict, evaluate0: dict) -> float:
 
 
 def summary_line(r: dict) -> str:
-  parts = [f"round {r['round']} {r['phase']}:"]
+  """A phase's line on the console: its numbers in groups separated by "; ", then its time."""
+  parts = []
   if r.get("success_rate") is not None:
     parts.append(
       f"success {r['success_rate']:.1%} of {r['num_rollouts']} [{r['wilson_low']:.1%}, {r['wilson_high']:.1%}]"
@@ -266,5 +282,5 @@ def summary_line(r: dict) -> str:
     parts.append(f"observation features out of range {r['obs_out_of_range']:.1%}")
   if r.get("final_loss") is not None:
     parts.append(f"loss {r['final_loss']:.4f} after {r['steps']} steps on {r['num_episodes']} episodes")
-  parts.append(f"({r['time_total_s']:.0f} s, compile {r['time_compile_s']:.0f} s)")
-  return " ".join(parts)
+  timing = f"({r['time_total_s']:.0f} s, compile {r['time_compile_s']:.0f} s)"
+  return " ".join(x for x in (f"round {r['round']} {r['phase']}:", "; ".join(parts), timing) if x)

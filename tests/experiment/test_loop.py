@@ -3,6 +3,8 @@ order, resume after an interruption to the same numbers, extending a run, re-fit
 a fit stopped midway, demonstrations from a file; and that none of it loads MuJoCo or brax."""
 
 import ast
+import contextlib
+import io
 import json
 import os
 import pathlib
@@ -334,6 +336,30 @@ def test_a_fit_says_how_long_it_will_take(tmp_path, capsys):
   loop.run(config, str(tmp_path / "run"), progress=False)
   lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("round 0 fit: ")]
   assert len(lines) == 2 and " ms per step, about " in lines[0] and lines[0].endswith(" left of 60 steps"), lines
+
+
+def test_a_finished_run_run_again_says_so_and_nothing_else(toy_run, capsys, monkeypatch):
+  """No round headers and no time left: the run has nothing left to do (its phases are not entered)."""
+  _, config, workdir = toy_run
+  monkeypatch.setattr(loop, "round0", lambda exp: pytest.fail("a finished run entered round 0"))
+  capsys.readouterr()
+  loop.run(config, workdir, progress=False)
+  assert capsys.readouterr().out.splitlines() == [
+    f"workdir {workdir}: already finished (2 rounds); rewriting its report"
+  ]
+
+
+def test_the_fits_estimate_is_a_line_of_its_own_beside_a_progress_bar(tmp_path):
+  """With progress bars on and stdout and stderr in one file (`> log 2>&1`), the estimate does not run on
+  from the bar's line."""
+  config = toy.get_config("smoke,soe")
+  config.rounds.num_rounds = 0
+  config.fit.num_steps = 3 * config.fit.chunk_size
+  both = io.StringIO()
+  with contextlib.redirect_stdout(both), contextlib.redirect_stderr(both):
+    loop.run(config, str(tmp_path / "run"), progress=True)
+  lines = both.getvalue().split("\n")
+  assert any(line.startswith("round 0 fit: ") and " ms per step, about " in line for line in lines), lines
 
 
 def test_a_policy_of_relative_poses_runs_and_acts_in_absolute_poses(tmp_path):

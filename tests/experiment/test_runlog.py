@@ -51,3 +51,14 @@ def test_wandb_mirrors_each_phase_and_resumes_an_interrupted_run(tmp_path, monke
   logged = b"".join(open(f, "rb").read() for r in runs for f in glob.glob(os.path.join(r, "*.wandb")))
   assert b"fit/final_loss" in logged and b"fit/kl" in logged and b"fit/converged" not in logged
   assert b"commit" in logged and b"seed" in logged  # the config, with the commit, in the offline record
+
+
+def test_a_phases_line_separates_its_groups_of_numbers():
+  record = dict(round=1, phase="explore", success_rate=0.3, num_rollouts=500, wilson_low=0.26, wilson_high=0.34,
+                pass_at_k=0.7, k=5, rollouts=280, rollouts_mean=2.8, jerk=34.1, num_episodes=26, obs_out_of_range=0.003,
+                time_total_s=102.0, time_compile_s=30.0)  # fmt: skip
+  line = runlog.summary_line(record)
+  assert "jerk 34.1 m/s^3, kept 26; observation features out of range" in line, line
+  assert line.startswith("round 1 explore: success 30.0% of 500 [26.0%, 34.0%]; Pass@5 70.0%") and line.endswith(
+    " (102 s, compile 30 s)"
+  ), line
