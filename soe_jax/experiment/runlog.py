@@ -279,7 +279,7 @@ def summary_line(r: dict) -> str:
       f"jerk {r['jerk']:.1f} m/s^3, kept {r['num_episodes']}"
     )
   if r.get("obs_out_of_range") is not None:
-    parts.append(f"observation features out of range {r['obs_out_of_range']:.1%}")
+    parts.append(f"observation features out of range (beyond the demonstrations' span) {r['obs_out_of_range']:.1%}")
   if r.get("final_loss") is not None:
     parts.append(f"loss {r['final_loss']:.4f} after {r['steps']} steps on {r['num_episodes']} episodes")
   timing = f"({r['time_total_s']:.0f} s, compile {r['time_compile_s']:.0f} s)"
