@@ -15,6 +15,7 @@ COMMANDS = {
   "latent": "the latent's SNR per dimension and its effective dimensions, and SOE's exploration from it",
   "aggregate": "finished runs -> one table over tasks x methods, paired with round 0 and the control",
   "results": "committed records under results/ -> tables; --docs regenerates the documents' tables",
+  "calibrate": "the verdicts' tests on simulated campaigns: false positives and power, as a record",
   "kept": "what the kept episodes of runs look like (lengths, spread, states), as a record",
   "action_range": "round 0 on the workspace box against the demonstrations' range, by distance outside it",
   "round0": "a campaign arm's round 0 as a record for results/ (tabled paired with the folder's first)",

@@ -1,12 +1,26 @@
 """The paper's four comparative claims, tested on a campaign's runs (`aggregate.rows`), one sentence each.
 
-Reproduced means the paper's direction with a pooled p < 0.05 against the control, or against the
-baseline the claim names. Every test pairs the methods of a training seed on the same start states:
-- success: a method's last round against the control's (CMH over (seed, state) pairs);
-- Pass@5: per exploration start state, whether any of its tries succeeded (CMH over (seed, state));
-- rollouts: per exploration start state, tries up to the first success; the sign test over the
-  (seed, state) pairs where two methods differ (exact binomial);
+The training seed is the replicate (`seed_level`): each comparison is a paired difference per seed on
+the seed's shared start states; verdicts rest on the moderated seed-level test, whose between-seed
+variance is pooled over the comparisons of the same task in the folder (its family):
+- success: a method's last round against the control's (family: every arm against its control, and
+  the control against its round 0);
+- Pass@5: per exploration start state, whether any of its tries succeeded (family: SOE - SIME, SIME -
+  DP and each other exploring method against DP);
+- rollouts: per exploration start state, tries up to the first success, the per-seed mean difference
+  (the same family);
 - jerk: each seed's mean exploration jerk; a paired t-test over seeds on its logarithm.
+Each line prints the per-seed differences, the seed-level estimate with its 95% interval and p-value,
+and beside it the pooled p-value over (seed, state) pairs (CMH, or the exact sign test for rollouts),
+which treats the fits as fixed.
+
+Verdicts (`seed_level.verdict`): reproduced (the paper's direction at seed-level p < 0.05),
+contradicted (the interval excludes the tested number on the paper's side), inconclusive (with the
+seeds that would detect the number at 80% power), or an anecdote (fewer than 3 seeds: no p-value).
+The tested numbers (`TESTED`): SOE's success gain is tested against the paper's smallest relative gain
+of SOE alone, +19.1% of round 0 (its real-robot Table I; the paper gives no number for simulation in
+its text), in points of the seeds' own round 0; the other claims have no magnitude in the paper's text
+and are tested for their direction, against 0 (a ratio of 1 for jerk).
 """
 
 from __future__ import annotations
@@ -18,13 +32,16 @@ import numpy as np
 from scipy import stats
 
 from soe_jax import metrics
+from soe_jax.analysis import seed_level as sl
 
 ALPHA = 0.05
+# SOE alone's relative gains on the real robot (the paper's Table I: +19.1 / +33.9 / +38.0%): the smallest.
+SOE_RELATIVE_GAIN = 0.191
 
 
 class Claim(NamedTuple):
-  """One claim tested: what the paper says, the verdict ("reproduced", "not reproduced", "untested"
-  or "not measured") and the numbers behind it; `str` is the sentence the tables print."""
+  """One claim tested: what the paper says, the verdict (reproduced, contradicted, inconclusive,
+  anecdote, or not measured) and the numbers behind it; `str` is the sentence the tables print."""
 
   title: str
   verdict: str
@@ -36,10 +53,16 @@ class Claim(NamedTuple):
     return f"{self.title}: {self.verdict}; {self.detail}."
 
 
-SUCCESS = "SOE raises success (paper: +19% to +62% relative, DP can degrade)"
+SUCCESS = "SOE raises success (paper, real robot: SOE alone +19.1% to +38.0% relative; DP can degrade)"
 PASS = "Pass@5 ordered SOE > SIME > DP"
 ROLLOUTS = "SOE needs the fewest rollouts"
 JERK = "SIME's jerk far above DP's and SOE's"
+TESTED = {
+  SUCCESS: f"+{100 * SOE_RELATIVE_GAIN:.1f}% of the seeds' round 0 (the paper's smallest gain of SOE alone, real robot)",
+  PASS: "0 (direction only: the paper's text gives no magnitude)",
+  ROLLOUTS: "0 (direction only: the paper's text gives no magnitude)",
+  JERK: "a ratio of 1 (direction only: the paper's text gives no magnitude for simulation)",
+}
 
 
 def _by_method(rows: list[dict], task: str) -> dict:
@@ -62,40 +85,168 @@ def _seed_pairs(a: dict, b: dict, per_state) -> list[tuple]:
   return pairs
 
 
-def _verdict(ok: bool) -> str:
-  return "reproduced" if ok else "not reproduced"
+def combined(verdicts: list[str]) -> str:
+  """A claim of several parts: contradicted if one part is, an anecdote if one is, reproduced if all
+  are, inconclusive otherwise."""
+  if sl.CONTRADICTED in verdicts:
+    return sl.CONTRADICTED
+  if sl.ANECDOTE in verdicts:
+    return sl.ANECDOTE
+  return sl.REPRODUCED if all(v == sl.REPRODUCED for v in verdicts) else sl.INCONCLUSIVE
 
 
-def success_claim(m: dict) -> Claim:
+def _num(x: float, scale: float, digits: int) -> str:
+  return f"{scale * x:+.{digits}f}"
+
+
+def describe(name: str, test: sl.Test, pooled_p: float | None, unit: str = "points", scale: float = 100,
+             digits: int = 1) -> str:  # fmt: skip
+  """'SOE against the control -3.0 points [-7.0, +0.9] (per seed -5.5, +1.0, -4.5; seed-level p = 0.12,
+  10 df; pooled p = 0.10)'; fewer than 3 seeds: the per-seed differences alone (an anecdote has no
+  p-value)."""
+  per_seed = ", ".join(_num(x, scale, digits) for x in test.d)
+  if test.seeds < sl.MIN_SEEDS or math.isnan(test.p_value):
+    return f"{name} {_num(test.estimate, scale, digits)} {unit} (per seed {per_seed})"
+  pooled = "" if pooled_p is None else f"; pooled p = {pooled_p:.2g}"
+  return (
+    f"{name} {_num(test.estimate, scale, digits)} {unit} [{_num(test.low, scale, digits)}, "
+    f"{_num(test.high, scale, digits)}] (per seed {per_seed}; seed-level p = {test.p_value:.2g}, {test.df} df{pooled})"
+  )
+
+
+def needs(verdict: str, test: sl.Test, tested: float, direction: int, fits: int, scale: float = 100,
+          unit: str = "points") -> str:  # fmt: skip
+  """What an inconclusive verdict would need: '; 9 seeds would detect +14.2 points at 80% power' (the
+  tested number; for a claim of direction alone, the estimate, where it lies in the paper's direction)."""
+  if verdict != sl.INCONCLUSIVE:
+    return ""
+  effect = tested if tested != 0 else (test.estimate if direction * test.estimate > 0 else 0.0)
+  if effect == 0:
+    return "; the estimate lies against the paper's direction"
+  n = sl.seeds_needed(effect, test.sd, fits)
+  shown = f"{_num(effect, scale, 1 if scale == 100 else 2)} {unit}"
+  return (
+    f"; more than 100 seeds would be needed to detect {shown}"
+    if n is None
+    else (f"; {n} seeds would detect {shown} at 80% power")
+  )
+
+
+class Layout(NamedTuple):
+  """A family of fits of one task: their names and the (seeds, fits) table of per-seed summaries."""
+
+  names: list[str]
+  seeds: list
+  y: np.ndarray
+
+  def tests(self, contrasts: list[tuple[str, str]]) -> list[sl.Test]:
+    """The moderated test of each (fit, reference) by name."""
+    return sl.moderated(self.y, [(self.names.index(a), self.names.index(b)) for a, b in contrasts])
+
+
+def layout(per_seed: dict[str, dict]) -> Layout:
+  """{fit: {seed: summary}} -> the `Layout` over the seeds every fit has."""
+  seeds = sorted(set.intersection(*(set(v) for v in per_seed.values()))) if per_seed else []
+  names = list(per_seed)
+  return Layout(names, seeds, np.array([[per_seed[n][s] for n in names] for s in seeds], float).reshape(len(seeds), -1))
+
+
+def _rate(outcomes) -> float:
+  return float(np.mean(np.asarray(outcomes, float)))
+
+
+def success_fits(rows: list[dict], task: str) -> dict[str, dict]:
+  """The family of success on `task`: {fit: {seed: per-state outcomes}} for the control's last round,
+  its round 0, and each arm's last round whose round 0 is the control's on every seed (the oracle arms,
+  `expert_data`, left out: near the ceiling their seed-to-seed spread is not the others')."""
+  control = next((r for r in rows if r["task"] == task and r["method"] == "control" and not r["variant"]), None)
+  if control is None:
+    return {}
+  base = {r["seed"]: r["outcomes"]["evaluate"]["0"] for r in control["runs"]}
+  fits = {"control": {r["seed"]: r["outcomes"]["evaluate"][r["last"]] for r in control["runs"]}, "round 0": base}
+  for r in rows:
+    if r["task"] != task or r is control or r["method"].split("-")[0] == "control" or "expert_data" in r["method"]:
+      continue
+    runs = [run for run in r["runs"] if run["last"] not in (None, "0")]
+    if runs and all(run["seed"] in base and run["outcomes"]["evaluate"]["0"] == base[run["seed"]] for run in runs):
+      name = f"{r['method']}{r['variant'] and ' (' + r['variant'] + ')'}"
+      fits[name] = {run["seed"]: run["outcomes"]["evaluate"][run["last"]] for run in runs}
+  return fits
+
+
+def rates(fits: dict[str, dict]) -> dict[str, dict]:
+  """{fit: {seed: per-state outcomes}} -> {fit: {seed: success rate}}."""
+  return {name: {seed: _rate(o) for seed, o in by_seed.items()} for name, by_seed in fits.items()}
+
+
+def against_reference(fits: dict[str, dict], reference: str = "control") -> dict[str, sl.Effects]:
+  """Each other fit against `reference` on their common seeds: {fit: its per-seed `Effects`}."""
+  ref = fits[reference]
+  return {
+    name: sl.effects([(ref[seed], by_seed[seed]) for seed in sorted(by_seed) if seed in ref])
+    for name, by_seed in fits.items()
+    if name != reference
+  }
+
+
+def success_claim(rows: list[dict], task: str) -> Claim:
+  m = _by_method(rows, task)
   soe, dp = m.get("soe"), m.get("dp")
-  if soe is None or soe["comparisons"]["control"] is None:
+  fits = success_fits(rows, task)
+  if soe is None or soe["comparisons"]["control"] is None or "soe" not in fits:
     return Claim(SUCCESS, "not measured", "no soe and control runs")
-  c, dp_c = soe["comparisons"]["control"], dp and dp["comparisons"]["control"]
-  ok = c["difference_mean"] > 0 and c["p_value"] < ALPHA
-  rel = [x for x in soe["per_seed"]["improvement_rel"] if x is not None]
-  rel = f"{100 * np.mean(rel):+.1f}% relative to round 0" if rel else "relative to round 0 undefined (round 0 at 0%)"
-  dp_text = ""
-  if dp_c is not None:
-    dp_text = f"; DP against the control {100 * dp_c['difference_mean']:+.1f} points (p = {dp_c['p_value']:.2g})"
-  seeds = f"{c['seeds']} seed{'s' if c['seeds'] > 1 else ''}"
-  detail = f"SOE against the control {100 * c['difference_mean']:+.1f} points (p = {c['p_value']:.2g}, {seeds}), {rel}"
-  return Claim(SUCCESS, _verdict(ok), detail + dp_text)
+  lay = layout(rates(fits))
+  test = lay.tests([("soe", "control")])[0]
+  round0 = float(np.mean(lay.y[:, lay.names.index("round 0")]))
+  tested = SOE_RELATIVE_GAIN * round0
+  verdict = sl.verdict(test, tested)
+  detail = describe("SOE against the control", test, soe["comparisons"]["control"]["p_value"])
+  detail += f"; tested against {_num(tested, 100, 1)} points (+19.1% of round 0's {100 * round0:.1f}%)"
+  detail += needs(verdict, test, tested, 1, len(lay.names))
+  if dp is not None and "dp" in fits:
+    detail += "; " + describe("DP against the control", lay.tests([("dp", "control")])[0],
+                              dp["comparisons"]["control"]["p_value"])  # fmt: skip
+  return Claim(SUCCESS, verdict, detail)
 
 
 def _pass_pairs(a: dict, b: dict):
   return _seed_pairs(a, b, lambda r: None if (e := _explored(r)) is None else e.any(axis=1))
 
 
-def pass_claim(m: dict) -> Claim:
-  soe, sime, dp = m.get("soe"), m.get("sime"), m.get("dp")
-  if not (soe and sime and dp):
+def _rollouts(r: dict):
+  return None if (e := _explored(r)) is None else metrics.rollouts(e)["per_state"]
+
+
+# The exploring methods of a family of Pass@5 or rollouts.
+EXPLORERS = ("dp", "sime", "soe", "soe_steer")
+
+
+def _explore_layout(m: dict, per_state) -> Layout:
+  """The exploring methods' per-seed means of a per-state exploration value (`per_state`)."""
+  fits = {}
+  for name in EXPLORERS:
+    if name in m:
+      values = {run["seed"]: float(np.mean(v)) for run in m[name]["runs"] if (v := per_state(run)) is not None}
+      if values:
+        fits[name] = values
+  return layout(fits)
+
+
+def pass_claim(rows: list[dict], task: str) -> Claim:
+  m = _by_method(rows, task)
+  if not all(k in m for k in ("soe", "sime", "dp")):
     return Claim(PASS, "not measured", "needs soe, sime and dp runs")
-  parts, ok = [], True
-  for hi, lo, name in ((soe, sime, "SOE - SIME"), (sime, dp, "SIME - DP")):
-    c = metrics.pooled_comparison(_pass_pairs(hi, lo))
-    ok &= c["difference_mean"] > 0 and c["p_value"] < ALPHA
-    parts.append(f"{name} {100 * c['difference_mean']:+.1f} points (p = {c['p_value']:.2g})")
-  return Claim(PASS, _verdict(ok), ", ".join(parts))
+  lay = _explore_layout(m, lambda r: None if (e := _explored(r)) is None else e.any(axis=1))
+  if not all(k in lay.names for k in ("soe", "sime", "dp")):
+    return Claim(PASS, "not measured", "no per-state exploration outcomes")
+  parts, verdicts = [], []
+  for (a, b), name in ((("soe", "sime"), "SOE - SIME"), (("sime", "dp"), "SIME - DP")):
+    test = lay.tests([(a, b)])[0]
+    verdict = sl.verdict(test, 0.0)
+    verdicts.append(verdict)
+    pooled = metrics.pooled_comparison(_pass_pairs(m[a], m[b]))["p_value"]
+    parts.append(describe(name, test, pooled) + needs(verdict, test, 0.0, 1, len(lay.names)))
+  return Claim(PASS, combined(verdicts), "; ".join(parts))
 
 
 def sign_test(a, b) -> dict:
@@ -105,35 +256,52 @@ def sign_test(a, b) -> dict:
   return dict(fewer=fewer, more=more, p_value=metrics.sign_test_p(fewer, more))
 
 
-def _rollouts(r: dict):
-  return None if (e := _explored(r)) is None else metrics.rollouts(e)["per_state"]
-
-
-def rollouts_claim(m: dict) -> Claim:
-  soe = m.get("soe")
-  others = [(k, m[k]) for k in ("dp", "sime") if k in m]
-  if soe is None or not others:
+def rollouts_claim(rows: list[dict], task: str) -> Claim:
+  m = _by_method(rows, task)
+  others = [k for k in ("dp", "sime") if k in m]
+  if "soe" not in m or not others:
     return Claim(ROLLOUTS, "not measured", "needs soe and dp or sime runs")
-  parts, ok = [], True
-  for name, other in others:
-    pairs = _seed_pairs(soe, other, _rollouts)
-    if not pairs:
-      return Claim(ROLLOUTS, "not measured", "no per-state exploration outcomes")
+  lay = _explore_layout(m, _rollouts)
+  if "soe" not in lay.names or not any(k in lay.names for k in others):
+    return Claim(ROLLOUTS, "not measured", "no per-state exploration outcomes")
+  parts, verdicts = [], []
+  for k in [k for k in others if k in lay.names]:
+    test = lay.tests([("soe", k)])[0]
+    verdict = sl.verdict(test, 0.0, direction=-1)
+    verdicts.append(verdict)
+    pairs = _seed_pairs(m["soe"], m[k], _rollouts)
     t = sign_test(np.concatenate([x for _, x in pairs]), np.concatenate([y for y, _ in pairs]))
-    ok &= t["fewer"] > t["more"] and t["p_value"] < ALPHA
-    parts.append(f"fewer than {name} on {t['fewer']} start states, more on {t['more']} (p = {t['p_value']:.2g})")
-  return Claim(ROLLOUTS, _verdict(ok), "SOE needed " + "; ".join(parts))
+    text = describe(f"SOE - {k}", test, t["p_value"], "rollouts a state", scale=1, digits=2)
+    text += f", fewer on {t['fewer']} start states, more on {t['more']}"
+    parts.append(text + needs(verdict, test, 0.0, -1, len(lay.names), 1, "rollouts a state"))
+  return Claim(ROLLOUTS, combined(verdicts), "; ".join(parts))
 
 
-def log_ratio_test(a: list[float], b: list[float]) -> dict:
-  """Per-seed values of two methods: the geometric mean of a / b and the paired t-test's two-sided
-  p-value on log(a / b) (None for fewer than 2 seeds)."""
+def log_ratio_test(a: list[float], b: list[float], alpha: float = ALPHA) -> dict:
+  """Per-seed values of two methods: the geometric mean of a / b, the paired t-test's two-sided
+  p-value on log(a / b) and its (1 - alpha) interval as ratios (None for fewer than 2 seeds)."""
   d = np.log(np.asarray(a, float)) - np.log(np.asarray(b, float))
-  p = float(stats.ttest_1samp(d, 0.0).pvalue) if len(d) > 1 and np.std(d) > 0 else None
-  return dict(ratio=float(math.exp(d.mean())), p_value=p)
+  out = dict(ratio=float(math.exp(d.mean())), p_value=None, low=None, high=None, seeds=len(d))
+  if len(d) > 1 and np.std(d) > 0:
+    se = float(np.std(d, ddof=1) / math.sqrt(len(d)))
+    crit = float(stats.t.ppf(1 - alpha / 2, len(d) - 1))
+    out.update(p_value=float(stats.ttest_1samp(d, 0.0).pvalue), low=math.exp(d.mean() - crit * se),
+               high=math.exp(d.mean() + crit * se))  # fmt: skip
+  return out
 
 
-def jerk_claim(m: dict) -> Claim:
+def _ratio_verdict(t: dict) -> str:
+  if t["seeds"] < sl.MIN_SEEDS:
+    return sl.ANECDOTE
+  if t["p_value"] is not None and t["ratio"] > 1 and t["p_value"] < ALPHA:
+    return sl.REPRODUCED
+  if t["high"] is not None and t["high"] < 1:
+    return sl.CONTRADICTED
+  return sl.INCONCLUSIVE
+
+
+def jerk_claim(rows: list[dict], task: str) -> Claim:
+  m = _by_method(rows, task)
   soe, sime, dp = m.get("soe"), m.get("sime"), m.get("dp")
   if not (soe and sime and dp):
     return Claim(JERK, "not measured", "needs soe, sime and dp runs")
@@ -141,15 +309,15 @@ def jerk_claim(m: dict) -> Claim:
   for name, a, b in (("SIME / DP", sime, dp), ("SIME / SOE", sime, soe), ("SOE / DP", soe, dp)):
     pairs = _seed_pairs(a, b, lambda run: run.get("jerk"))
     tests[name] = log_ratio_test([x for _, x in pairs], [y for y, _ in pairs])
-  p = lambda t: "-" if t["p_value"] is None else f"{t['p_value']:.2g}"
-  shown = ", ".join(f"{k} {t['ratio']:.2f}x (p = {p(t)})" for k, t in tests.items())
-  needed = [tests[k] for k in ("SIME / DP", "SIME / SOE")]
-  if any(t["p_value"] is None for t in needed):  # the test is across training seeds
-    return Claim(JERK, "untested", f"{shown}: its test needs two training seeds or more")
-  ok = all(t["ratio"] > 1 and t["p_value"] < ALPHA for t in needed)
-  return Claim(JERK, _verdict(ok), shown)
+
+  def shown(name: str, t: dict) -> str:
+    if t["seeds"] < sl.MIN_SEEDS or t["p_value"] is None:
+      return f"{name} {t['ratio']:.2f}x"
+    return f"{name} {t['ratio']:.2f}x [{t['low']:.2f}, {t['high']:.2f}] (t-test over seeds p = {t['p_value']:.2g})"
+
+  text = ", ".join(shown(k, t) for k, t in tests.items())
+  return Claim(JERK, combined([_ratio_verdict(tests[k]) for k in ("SIME / DP", "SIME / SOE")]), text)
 
 
 def claims(rows: list[dict], task: str) -> list[Claim]:
-  m = _by_method(rows, task)
-  return [success_claim(m), pass_claim(m), rollouts_claim(m), jerk_claim(m)]
+  return [success_claim(rows, task), pass_claim(rows, task), rollouts_claim(rows, task), jerk_claim(rows, task)]

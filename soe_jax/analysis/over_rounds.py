@@ -5,16 +5,21 @@ improves monotonically.
 
 Every round of a training seed is evaluated on the same start states with the same sampling keys, so
 each round is compared state by state with the round before it (the CMH test over (seed, state)
-pairs, `metrics.pooled_comparison`). A method improves monotonically when every round's mean
-difference from the one before is positive and its last round is above round 0 with p < 0.05.
+pairs, `metrics.pooled_comparison`, in the table) and, for the claim, at the seed level (`seed_level`):
+a method improves monotonically when every round is above the one before at seed-level p < 0.05, the
+between-seed variance pooled over every step of the task's methods.
 """
 
 from __future__ import annotations
+
+import json
+from itertools import pairwise
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from soe_jax import metrics
+from soe_jax.analysis import claims, seed_level
 from soe_jax.analysis.claims import Claim
 from soe_jax.analysis.tables import markdown, spread
 
@@ -54,13 +59,28 @@ def steps(row: dict) -> list[dict]:
   return out
 
 
-def improves_monotonically(row: dict) -> bool:
-  rounds = rounds_of(row)
-  first = [run["outcomes"]["evaluate"]["0"] for run in row["runs"]]
-  last = [run["outcomes"]["evaluate"][str(rounds[-1])] for run in row["runs"]]
-  overall = metrics.pooled_comparison(list(zip(first, last)))
-  rising = all(s["difference_mean"] > 0 for s in steps(row))
-  return rising and overall["difference_mean"] > 0 and overall["p_value"] < ALPHA
+def step_tests(rows: list[dict]) -> dict[str, list[seed_level.Test]]:
+  """{method: the moderated seed-level test of each of its steps (each round against the one before)},
+  the family being every round of every row given (one task's methods; round 0 one fit where every row
+  evaluated the same round 0, as methods sharing it do)."""
+  per_round = {
+    (row["method"], r): {run["seed"]: run["outcomes"]["evaluate"][str(r)] for run in row["runs"]}
+    for row in rows
+    for r in rounds_of(row)
+  }
+  shared = len({json.dumps(v, sort_keys=True) for (_, r), v in per_round.items() if r == 0}) == 1
+  name = lambda method, r: "round 0" if shared and r == 0 else f"{method} {r}"
+  fits = {name(m, r): {seed: float(np.mean(o)) for seed, o in v.items()} for (m, r), v in per_round.items()}
+  lay = claims.layout(fits)
+  return {
+    row["method"]: lay.tests([(name(row["method"], b), name(row["method"], a)) for a, b in pairwise(rounds_of(row))])
+    for row in rows
+  }
+
+
+def improves_every_round(tests: list[seed_level.Test]) -> bool:
+  """Every step up at seed-level p < 0.05."""
+  return all(seed_level.verdict(t, 0.0) == seed_level.REPRODUCED for t in tests)
 
 
 def _cells(x: np.ndarray, scale: float, fmt: str) -> list[str]:
@@ -95,22 +115,36 @@ def table(rows: list[dict]) -> str:
 
 def claim(rows: list[dict], task: str) -> Claim | None:
   """The paper's claim that only SOE improves monotonically over rounds, tested on `task`'s rows of
-  several rounds (None when it has no SOE row of several rounds)."""
+  several rounds at the seed level (None when it has no SOE row of several rounds): reproduced when
+  each of SOE's steps is up at p < 0.05 and no dp or sime row's every step is; contradicted when one of
+  SOE's steps has its interval below 0, or dp or sime improves every round too; fewer than 3 seeds: an
+  anecdote; inconclusive otherwise."""
   m = {r["method"]: r for r in multi_round(rows) if r["task"] == task and not r["variant"]}
   if "soe" not in m:
     return None
   others = [k for k in ("dp", "sime") if k in m]
-  verdict = improves_monotonically(m["soe"]) and not any(improves_monotonically(m[k]) for k in others)
+  tests = step_tests(list(m.values()))
+  verdicts = [seed_level.verdict(t, 0.0) for t in tests["soe"]]
+  if seed_level.ANECDOTE in verdicts:
+    verdict = seed_level.ANECDOTE
+  elif seed_level.CONTRADICTED in verdicts or any(improves_every_round(tests[k]) for k in others):
+    verdict = seed_level.CONTRADICTED
+  elif improves_every_round(tests["soe"]):
+    verdict = seed_level.REPRODUCED
+  else:
+    verdict = seed_level.INCONCLUSIVE
   parts = []
   for name in [k for k in ("soe", "dp", "sime", "control") if k in m]:
     rounds = rounds_of(m[name])
     mean = np.nanmean(_per_seed(m[name], "success_per_round", rounds), axis=0)
     path = " -> ".join(f"{100 * x:.1f}" for x in mean)
-    parts.append(
-      f"{name} {path}% ({'improves every round' if improves_monotonically(m[name]) else 'does not improve every round'})"
+    each = "; ".join(
+      claims.describe(f"round {r}", t, s["p_value"]) for r, t, s in zip(rounds[1:], tests[name], steps(m[name]))
     )
+    every = "improves every round" if improves_every_round(tests[name]) else "does not improve every round"
+    parts.append(f"{name} {path}% ({every}: {each})")
   vs = "against " + ", ".join(others) if others else "no dp or sime runs to compare"
-  return Claim(ROUNDS, "reproduced" if verdict else "not reproduced", f"{vs}: " + "; ".join(parts))
+  return Claim(ROUNDS, verdict, f"{vs}: " + "; ".join(parts))
 
 
 def figure(rows: list[dict], path: str) -> None:

@@ -12,7 +12,9 @@ command that wrote it sets it (`record.write_record`), and `TABLES` maps a kind 
 - `serve`: `python -m soe_jax bench serve`, the policy server's latency per chunk, a row per record;
 - `fidelity`: `python -m soe_jax fidelity`, the exploration path against the base path (`fidelity.table`);
 - `action_range`: `python -m soe_jax action_range`, round 0 on the workspace box against the
-  demonstrations' range per distance outside the latter (`action_range.table`).
+  demonstrations' range per distance outside the latter (`action_range.table`);
+- `calibration`: `python -m soe_jax calibrate`, each test's false-positive rate and power on simulated
+  campaigns (`calibration.table`).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from collections.abc import Callable
 import numpy as np
 
 from soe_jax import metrics
-from soe_jax.analysis import action_range, fidelity, kept
+from soe_jax.analysis import action_range, calibration, fidelity, kept
 from soe_jax.analysis.tables import markdown, pct, rate
 from soe_jax.experiment import rundir, runlog, schema
 from soe_jax.registry import Registry
@@ -299,6 +301,7 @@ def demo_styles_table(records: Records) -> str:
 TABLES.register("demo_styles", demo_styles_table)
 TABLES.register("fidelity", lambda records: fidelity.table([run for _, r in records for run in r["runs"]]))
 TABLES.register("action_range", lambda records: action_range.table([s for _, r in records for s in r["seeds"]]))
+TABLES.register("calibration", lambda records: calibration.table([r for _, r in records]))
 
 
 def table(records: Records, folder: str = "") -> str:

@@ -21,7 +21,7 @@ import glob
 import os
 import re
 
-from soe_jax.analysis import against, aggregate, claims, over_rounds, records
+from soe_jax.analysis import against, aggregate, claims, over_rounds, records, seed_level
 from soe_jax.analysis.tables import markdown, pct, spread
 from soe_jax.runtime import atomic
 
@@ -116,10 +116,34 @@ def claims_summary(folders: list[str], brief: bool = False) -> str:
         verdicts.setdefault(c.verdict, []).append(f"{task} ({seeds})")
       out.append(f"- {title}: " + "; ".join(f"**{v}** on {', '.join(w)}" for v, w in verdicts.items()) + ".\n")
     return "".join(out)
+  families = [line for folder in folders
+              for task in sorted({r["task"] for r in aggregate.rows(aggregate.find_runs(folder))})
+              if (line := family_line(folder, task))]  # fmt: skip
+  head = "- The moderated test's families of success (every fit of the task in the folder but the oracle arms):\n"
   return "".join(
     f"- {title}:\n"
     + "".join(f"  - {task}, {seeds} (`{folder}`): **{c.verdict}**; {c.detail}.\n" for task, seeds, folder, c in tested)
     for title, tested in found.items()
+  ) + (head + "".join(f"  - {line}\n" for line in families) if families else "")
+
+
+def family_line(folder: str, task: str) -> str:
+  """The family of success of `task` in `folder` (`claims.success_fits`): its fits, its degrees of
+  freedom, the seed-to-seed standard deviation of a difference, and the homogeneity check
+  (`seed_level.homogeneity` of each fit against the control); "" for a folder of several rounds (its
+  family is the rounds') or without a control."""
+  rows = aggregate.rows(aggregate.find_runs(folder))
+  fits = claims.success_fits(rows, task)
+  lay = claims.layout(claims.rates(fits)) if len(fits) > 2 else None
+  if over_rounds.multi_round(rows) or lay is None or len(lay.seeds) < 2:
+    return ""
+  mse, df = seed_level.residual_variance(lay.y)
+  h = seed_level.homogeneity(list(claims.against_reference(fits).values()))
+  return (
+    f"{task} (`{folder}`): {len(lay.names)} fits ({', '.join(lay.names)}) on {len(lay.seeds)} seeds, {df} df; "
+    f"seed-to-seed standard deviation of a difference {100 * (2 * mse) ** 0.5:.1f} points; against the "
+    f"control, Cochran's Q with no between-seed variance {h['q']:.1f} on {h['df']} df (p = {h['p_value']:.2g}), "
+    f"each comparison's Q at the pooled variance: smallest p {h['worst_p']:.2g} (Bonferroni over {h['comparisons']})"
   )
 
 

@@ -198,50 +198,69 @@ def test_a_campaigns_seed_is_the_configs_unless_overridden():
 
 
 def test_the_papers_claims_are_tested_on_the_paired_runs(tmp_path):
+  """Each claim tested at the seed level: per-seed differences, the interval, both p-values labelled, a verdict."""
   from soe_jax.analysis import claims
 
   n = 40
-  base, good, bad = [0] * n, [1] * 30 + [0] * 10, [1] * 5 + [0] * 35
-  explored = {"soe": [[1, 0]] * 30 + [[0, 1]] * 10, "sime": [[0, 1]] * 25 + [[0, 0]] * 15, "dp": [[0, 0]] * n}
+  base = [0] * n
+  won = lambda k: [1] * k + [0] * (n - k)
+  after = {"soe": (30, 28, 32), "sime": (5, 6, 4), "dp": (5, 7, 5), "control": (5, 4, 6)}
+  explored = {
+    "soe": lambda s: [[1, 0]] * (30 + s) + [[0, 1]] * (10 - s),
+    "sime": lambda s: [[0, 1]] * (25 - s) + [[0, 0]] * (15 + s),
+    "dp": lambda s: [[0, 0]] * (n - s) + [[0, 1]] * s,
+  }
   jerks = {"soe": [3.0, 3.3, 2.9], "sime": [9.0, 12.0, 10.0], "dp": [3.1, 3.0, 3.2]}
   for seed in range(3):
     for method in ("soe", "sime", "dp"):
-      after = good if method == "soe" else bad
-      _fake_run(tmp_path / f"s{seed}" / method, method, seed, base, after, explored[method], jerks[method][seed])
-    _fake_run(tmp_path / f"s{seed}" / "control", "control", seed, base, bad)
-  success, passes, rollouts, jerk = map(str, claims.claims(aggregate.rows(aggregate.find_runs(str(tmp_path))), "lift"))
-  assert success.startswith("SOE raises success (paper: +19% to +62% relative, DP can degrade): reproduced;")
-  assert "SOE against the control +62.5 points (p = " in success and "DP against the control +0.0 points" in success
-  assert "relative to round 0 undefined (round 0 at 0%)" in success
-  assert passes.startswith("Pass@5 ordered SOE > SIME > DP: reproduced;")  # per seed: 40, 25 and 0 states
-  assert "SOE - SIME +37.5 points" in passes and "SIME - DP +62.5 points" in passes
-  assert rollouts.startswith("SOE needs the fewest rollouts: reproduced;")
+      _fake_run(tmp_path / f"s{seed}" / method, method, seed, base, won(after[method][seed]), explored[method](seed),
+                jerks[method][seed])  # fmt: skip
+    _fake_run(tmp_path / f"s{seed}" / "control", "control", seed, base, won(after["control"][seed]))
+  rows = aggregate.rows(aggregate.find_runs(str(tmp_path)))
+  success, passes, rollouts, jerk = map(str, claims.claims(rows, "lift"))
+  title = "SOE raises success (paper, real robot: SOE alone +19.1% to +38.0% relative; DP can degrade)"
+  assert success.startswith(f"{title}: reproduced; SOE against the control +62.5 points [")
+  assert "(per seed +62.5, +60.0, +65.0; seed-level p = " in success and "; pooled p = " in success
+  assert "tested against +0.0 points (+19.1% of round 0's 0.0%)" in success
   assert (
-    "fewer than dp on 90 start states, more on 0" in rollouts
-    and "fewer than sime on 90 start states, more on 0" in rollouts
+    "DP against the control +1.7 points [-4.6, +7.9] (per seed +0.0, +7.5, -2.5; seed-level p = 0.56, 8 df" in success
   )
-  assert jerk.startswith("SIME's jerk far above DP's and SOE's: reproduced; SIME / DP 3.31x (p = 0.0065)")
-  assert "SOE / DP 0.99x (p = 0.8" in jerk
+  assert passes.startswith("Pass@5 ordered SOE > SIME > DP: reproduced; SOE - SIME +40.0 points [+34.3, +45.7]")
+  assert "SIME - DP +57.5 points [+51.8, +63.2] (per seed +62.5, +57.5, +52.5; seed-level p = 9.4e-06, 4 df" in passes
+  assert rollouts.startswith("SOE needs the fewest rollouts: reproduced; SOE - dp ")
+  assert "fewer on 93 start states, more on 0" in rollouts
+  assert jerk.startswith("SIME's jerk far above DP's and SOE's: reproduced; SIME / DP 3.31x [")
+  assert "SOE / DP 0.99x [" in jerk and "(t-test over seeds p = 0.8" in jerk
   *_, one_seed = claims.claims(aggregate.rows(aggregate.find_runs(str(tmp_path / "s0"))), "lift")
-  assert str(one_seed).startswith("SIME's jerk far above DP's and SOE's: untested; SIME / DP 2.90x (p = -)")
+  assert (
+    str(one_seed)
+    == "SIME's jerk far above DP's and SOE's: anecdote; SIME / DP 2.90x, SIME / SOE 3.00x, SOE / DP 0.97x."
+  )
+  first_seed = str(claims.claims(aggregate.rows(aggregate.find_runs(str(tmp_path / "s0"))), "lift")[0])
+  assert first_seed.startswith(f"{title}: anecdote; SOE against the control +62.5 points (per seed +62.5)")
+  assert "p = " not in first_seed.split(";")[1]  # an anecdote has no p-value
   md = results.table(str(tmp_path))
   assert "- lift: SOE needs the fewest rollouts: reproduced" in md
   # Over several folders: per claim, a line per folder naming its verdict, numbers and seeds.
   summary = results.regenerate(f"<!-- claims: {tmp_path} {tmp_path / 's0'} -->\n<!-- /table -->\n").splitlines()
-  assert summary[1] == "- SOE raises success (paper: +19% to +62% relative, DP can degrade):"
+  assert summary[1] == f"- {title}:"
   assert summary[2].startswith(
     f"  - lift, 3 seeds (`{tmp_path}`): **reproduced**; SOE against the control +62.5 points"
   )
-  assert summary[3].startswith(f"  - lift, 1 seed (`{tmp_path / 's0'}`): **reproduced**; SOE against the control")
-  assert summary[4] == "- Pass@5 ordered SOE > SIME > DP:" and len(summary) == 1 + 4 * 3 + 1
+  assert summary[3].startswith(f"  - lift, 1 seed (`{tmp_path / 's0'}`): **anecdote**; SOE against the control")
+  assert summary[4] == "- Pass@5 ordered SOE > SIME > DP:"
+  families = summary.index(
+    "- The moderated test's families of success (every fit of the task in the folder but the oracle arms):"
+  )
+  assert summary[families + 1].startswith(
+    f"  - lift (`{tmp_path}`): 5 fits (control, round 0, dp, sime, soe) on 3 seeds, 8 df"
+  )
   # Brief: a line per claim, each verdict naming its tasks and seeds.
   brief = results.regenerate(f"<!-- claims-brief: {tmp_path} {tmp_path / 's0'} -->\n<!-- /table -->\n").splitlines()
-  assert brief[1] == (
-    "- SOE raises success (paper: +19% to +62% relative, DP can degrade): **reproduced** on lift (3 seeds), lift (1 seed)."
-  )
+  assert brief[1] == f"- {title}: **reproduced** on lift (3 seeds); **anecdote** on lift (1 seed)."
   assert (
     brief[4]
-    == "- SIME's jerk far above DP's and SOE's: **reproduced** on lift (3 seeds); **untested** on lift (1 seed)."
+    == "- SIME's jerk far above DP's and SOE's: **reproduced** on lift (3 seeds); **anecdote** on lift (1 seed)."
   )
   assert len(brief) == 1 + 4 + 1
 

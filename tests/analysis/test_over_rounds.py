@@ -50,11 +50,18 @@ def test_rounds_are_paired_and_only_soe_improves_monotonically(tmp_path):
   steps = over_rounds.steps(soe)
   assert [s["round"] for s in steps] == [1, 2, 3] and all(s["gained"] == 30 and s["lost"] == 0 for s in steps)
   assert [s["difference_mean"] for s in over_rounds.steps(dp)] == pytest.approx([-0.25, 0.5, 0.0])
-  assert over_rounds.improves_monotonically(soe) and not over_rounds.improves_monotonically(dp)
-  assert not over_rounds.improves_monotonically(rows["control"])  # no change is no improvement
+  tests = over_rounds.step_tests(list(rows.values()))
+  assert [t.d for t in tests["soe"]] == [pytest.approx((0.25, 0.25, 0.25))] * 3 and tests["soe"][
+    0
+  ].df == 2 * 11  # 12 fits: each method its own round 0
+  assert over_rounds.improves_every_round(tests["soe"]) and not over_rounds.improves_every_round(tests["dp"])
+  assert not over_rounds.improves_every_round(tests["control"])  # no change is no improvement
   claim = str(over_rounds.claim(list(rows.values()), "lift"))
   assert claim.startswith("Only SOE improves monotonically over rounds: reproduced; against dp: soe 10.0")
-  assert "soe 10.0 -> 35.0 -> 60.0 -> 85.0% (improves every round)" in claim and "dp 50.0 -> 25.0" in claim
+  assert (
+    "soe 10.0 -> 35.0 -> 60.0 -> 85.0% (improves every round: round 1 +25.0 points" in claim
+    and "dp 50.0 -> 25.0" in claim
+  )
 
 
 def test_the_rounds_table_and_figure_come_from_the_runs(tmp_path):

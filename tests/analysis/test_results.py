@@ -149,7 +149,9 @@ def test_a_record_without_a_kind_is_an_error_naming_its_file(tmp_path):
     results.table(str(tmp_path))
   (tmp_path / "02_b.json").write_text(json.dumps(dict(untyped, kind="nonsense")))
   (tmp_path / "01_a.json").unlink()
-  with pytest.raises(ValueError, match="unknown record kind 'nonsense'; known record kinds: action_range, converge"):
+  with pytest.raises(
+    ValueError, match="unknown record kind 'nonsense'; known record kinds: action_range, calibration, converge"
+  ):
     results.table(str(tmp_path))
 
 
