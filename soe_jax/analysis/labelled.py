@@ -2,7 +2,9 @@
 with `next.success`): per mode, the success rate with its Wilson interval, Pass@k and the rollouts to
 the first success over the attempt groups (`start_state`, the tries a person made from one start
 state, in recording order), and jerk at the dataset's frame rate; and the success before and after a
-re-fit from two evaluation datasets, paired by start state where both name them.
+re-fit from two evaluation datasets, paired by start state where both name them. For several methods
+(`methods_table`): each one's exploration and its evaluation after its re-fit against one shared
+evaluation before, and the methods paired with each other by start state.
 
 A recorded episode's mode is `steer` if any of its requests steered, else the mode of its requests
 (the `mode` column, an index into `serve.modes.MODES`); episodes without the column are `recorded`.
@@ -10,8 +12,9 @@ A recorded episode's mode is `steer` if any of its requests steered, else the mo
 
 from __future__ import annotations
 
+import itertools
 import math
-from collections import defaultdict
+from collections import Counter, defaultdict
 
 import numpy as np
 import scipy.stats
@@ -88,13 +91,22 @@ def before_after(before: list[dict], after: list[dict]) -> dict:
   se = math.sqrt(a["rate"] * (1 - a["rate"]) / max(1, len(after)) + b["rate"] * (1 - b["rate"]) / max(1, len(before)))
   out = dict(before=b, after=a, difference=diff, difference_95=[diff - 1.96 * se, diff + 1.96 * se],
              relative=metrics.relative_improvement(b["rate"], a["rate"])["relative"], fisher_p=float(p))  # fmt: skip
-  gb, ga = groups(before), groups(after)
-  shared = sorted(set(gb) & set(ga))
-  if shared:
-    up = sum(np.mean(ga[s]) > np.mean(gb[s]) for s in shared)
-    down = sum(np.mean(ga[s]) < np.mean(gb[s]) for s in shared)
-    out["paired"] = dict(states=len(shared), up=int(up), down=int(down), sign_test_p=metrics.sign_test_p(up, down))
+  if (pr := paired(after, before)) is not None:
+    out["paired"] = pr
   return out
+
+
+def paired(a: list[dict], b: list[dict]) -> dict | None:
+  """Two sets of episodes paired by start state: over the states both name, how many have a higher
+  success rate in `a` than in `b` (up) and how many a lower one (down), with the two-sided sign test
+  (McNemar's exact test with one try per state); None where they share no state."""
+  ga, gb = groups(a), groups(b)
+  shared = sorted(set(ga) & set(gb))
+  if not shared:
+    return None
+  up = sum(np.mean(ga[s]) > np.mean(gb[s]) for s in shared)
+  down = sum(np.mean(ga[s]) < np.mean(gb[s]) for s in shared)
+  return dict(states=len(shared), up=int(up), down=int(down), sign_test_p=metrics.sign_test_p(up, down))
 
 
 def table(explore: dict | None, k: int = 5, before: dict | None = None, after: dict | None = None) -> dict:
@@ -139,3 +151,89 @@ def markdown(t: dict) -> str:
       lines.append(f"Paired by start state: {pr['up']} up, {pr['down']} down of {pr['states']} (sign test p = "
                    f"{pr['sign_test_p']:.3g})")  # fmt: skip
   return "\n".join(lines)
+
+
+def methods_table(methods: dict[str, tuple[dict | None, dict | None]], k: int = 5, before: dict | None = None) -> dict:
+  """The paper's Table I for several methods sharing one evaluation before the re-fit: `methods`
+  {name: (its exploration episodes, its evaluation after the re-fit)} (`read`'s, either None), in the
+  order to show. Per method its exploration over all the recording's episodes (`mode_summary`, with
+  the modes they were recorded in) and its success after the re-fit, against `before` where given
+  (`before_after`); between each pair of methods (the later named against the earlier), the paired
+  sign test over the start states both name, after the re-fit and in exploration."""
+  out = dict(k=k, before=None, methods={}, between=[])
+  if before is not None:
+    out["before"] = dict(dataset=before["root"], **metrics.success_rate([e["success"] for e in before["episodes"]]))
+  for name, (explore, after) in methods.items():
+    row = dict(explore=None, after=None, vs_before=None)
+    if explore is not None:
+      modes = dict(sorted(Counter(ep["mode"] for ep in explore["episodes"]).items()))
+      row["explore"] = dict(dataset=explore["root"], fps=explore["fps"], modes=modes,
+                            **mode_summary(explore["episodes"], k))  # fmt: skip
+    if after is not None:
+      row["after"] = dict(dataset=after["root"], **metrics.success_rate([e["success"] for e in after["episodes"]]))
+      if before is not None:
+        ba = before_after(before["episodes"], after["episodes"])
+        row["vs_before"] = {key: v for key, v in ba.items() if key not in ("before", "after")}
+    out["methods"][name] = row
+  names = list(methods)
+  for i, j in itertools.combinations(range(len(names)), 2):
+    (ea, aa), (eb, ab) = methods[names[j]], methods[names[i]]
+    both = lambda x, y: paired(x["episodes"], y["episodes"]) if x is not None and y is not None else None
+    pair = dict(a=names[j], b=names[i], after=both(aa, ab), explore=both(ea, eb))
+    if pair["after"] is not None or pair["explore"] is not None:
+      out["between"].append(pair)
+  return out
+
+
+def _rate(r: dict | None) -> str:
+  """A success rate with its Wilson interval."""
+  return "-" if r is None else f"{r['rate']:.1%} [{r['wilson_low']:.1%}, {r['wilson_high']:.1%}]"
+
+
+def _pair(pr: dict) -> str:
+  return f"{pr['up']} up, {pr['down']} down of {pr['states']} (sign test p = {pr['sign_test_p']:.3g})"
+
+
+def methods_markdown(t: dict) -> str:
+  """`methods_table` as a README would show it: one row per method, then the paired tests."""
+  k, before = t["k"], t["before"]
+  lines = []
+  if before is not None:
+    lines.append(f"Before the re-fit ({before['dataset']}): {_rate(before)} of {before['num_episodes']}")
+  fps = sorted({row["explore"]["fps"] for row in t["methods"].values() if row["explore"] is not None})
+  jerk = f"jerk ({', '.join(f'{f:g}' for f in fps)} Hz)" if fps else "jerk"
+  lines += ["", f"| method | explored | success [95% CI] | Pass@{k} [95% CI] | rollouts (states with {k} tries) | {jerk} "
+            "| success after [95% CI] | change [95% CI] | relative | Fisher p | vs before, paired by state |",
+            "|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+  notes = []
+  for name, row in t["methods"].items():
+    e, a, vb = row["explore"], row["after"], row["vs_before"]
+    cells = [name]
+    if e is None:
+      cells += ["-"] * 5
+    else:
+      pk = (f"{e['pass_at_k']:.1%} [{e['pass_at_k_wilson'][0]:.1%}, {e['pass_at_k_wilson'][1]:.1%}]"
+            if "pass_at_k" in e else "-")  # fmt: skip
+      ro = f"{e['rollouts']} ({e['states_with_k_tries']})" if "rollouts" in e else f"- ({e['states_with_k_tries']})"
+      cells += [str(e["episodes"]), f"{e['success_rate']:.1%} [{e['wilson'][0]:.1%}, {e['wilson'][1]:.1%}]", pk, ro,
+                f"{e['jerk_mean']:.3g} ± {e['jerk_sd']:.2g}"]  # fmt: skip
+      if len(e["modes"]) > 1:
+        each = ", ".join(f"{m} {n}" for m, n in e["modes"].items())
+        notes.append(f"{name}'s exploration ({e['dataset']}) pools episodes of several modes: {each}")
+    cells.append("-" if a is None else f"{_rate(a)} of {a['num_episodes']}")
+    if vb is None:
+      cells += ["-"] * 4
+    else:
+      rel = "-" if vb["relative"] is None else f"{vb['relative']:+.0%}"
+      lo, hi = vb["difference_95"]
+      cells += [f"{vb['difference']:+.1%} [{lo:+.1%}, {hi:+.1%}]", rel, f"{vb['fisher_p']:.3g}",
+                _pair(vb["paired"]) if "paired" in vb else "-"]  # fmt: skip
+    lines.append("| " + " | ".join(cells) + " |")
+  if t["between"]:
+    lines += ["", "Between methods, paired by start state (the states both name; each state's success rate):"]
+    for pr in t["between"]:
+      for what, label in (("after", "after the re-fit"), ("explore", "exploration")):
+        if pr[what] is not None:
+          lines.append(f"- {label}, {pr['a']} against {pr['b']}: {_pair(pr[what])}")
+  lines += [""] + notes if notes else []
+  return "\n".join(lines).lstrip("\n")

@@ -46,6 +46,10 @@ class Flags(flags.FlagValues):
   def list(self, name, default, help, **kw):
     flags.DEFINE_list(name, default, help, flag_values=self, **kw)
 
+  def multi_string(self, name, default, help, **kw):
+    """A flag given any number of times (`--method a --method b`) -> the list of its values."""
+    flags.DEFINE_multi_string(name, default, help, flag_values=self, **kw)
+
   def enum(self, name, default, values, help, **kw):
     flags.DEFINE_enum(name, default, values, help, flag_values=self, **kw)
 
