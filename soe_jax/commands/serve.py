@@ -42,10 +42,16 @@ FLAGS.integer(
   "page_port", None, "The page's port (default --port + 1, any free one with --port=0; -1: no page).", lower_bound=-1
 )
 FLAGS.float("steer_timeout", 30.0, "Seconds a steer request waits for a choice on the page.", lower_bound=0.0)
-FLAGS.float("alpha", 2.0, "soe's exploration scale.", lower_bound=0.0)
-FLAGS.float("sime_scale", None, "SIME's noise scale (default 0.01 for a low-dim policy, 0.5 for an image policy).")
-FLAGS.integer("steer_dims", 4, "Effective latent dimensions offered when steering (highest SNR first).", lower_bound=1)
-FLAGS.integer("steer_choices", 3, "Proposals shown per dimension.", lower_bound=1)
+# The exploring modes' settings; one left out is its strategy's default (`serve/modes.py`).
+FLAGS.float("alpha", None, "soe's exploration scale (default: the soe strategy's).", lower_bound=0.0)
+FLAGS.float("sime_scale", None, "SIME's noise scale (default: the sime strategy's; SIME's image scale for images).")
+FLAGS.integer(
+  "steer_dims",
+  None,
+  "Effective latent dimensions offered when steering, highest SNR first (default: soe_steer's max_dims, all).",
+  lower_bound=1,
+)
+FLAGS.integer("steer_choices", None, "Proposals shown per dimension (default: soe_steer's num_choices).", lower_bound=1)
 
 
 def _serve(argv: list[str]) -> None:
@@ -61,10 +67,10 @@ def _serve(argv: list[str]) -> None:
     loaded = checkpoint.load(FLAGS.checkpoint)
   except (FileNotFoundError, ValueError) as e:
     raise UserError(str(e)) from None
-  scale = FLAGS.sime_scale if FLAGS.sime_scale is not None else (0.5 if loaded.policy.image_keys else 0.01)
-  settings = modes_lib.Settings(alpha=FLAGS.alpha, sime_scale=scale, max_dims=FLAGS.steer_dims,
-                                num_choices=FLAGS.steer_choices)  # fmt: skip
-  modes = modes_lib.Modes(loaded.agent, loaded.spec, settings, modes_lib.stored_snr(FLAGS.checkpoint))
+  given = dict(soe=dict(alpha=FLAGS.alpha), sime=dict(scale=FLAGS.sime_scale),
+               steer=dict(max_dims=FLAGS.steer_dims, num_choices=FLAGS.steer_choices))  # fmt: skip
+  given = {mode: {k: v for k, v in s.items() if v is not None} for mode, s in given.items()}
+  modes = modes_lib.Modes(loaded.agent, loaded.spec, given, modes_lib.stored_snr(FLAGS.checkpoint))
   try:
     modes.check(FLAGS.mode)
   except ValueError as e:

@@ -1,5 +1,5 @@
 """`expert`: the task's scripted demonstrator resumed from the current state (an oracle; for tests and
-as a ceiling, not a method), and `demonstrate`, which the scripted chooser also follows."""
+as a ceiling, not a method), `demonstrate`, and steering's scripted chooser, which follows it."""
 
 from __future__ import annotations
 
@@ -7,7 +7,9 @@ import dataclasses
 from typing import TYPE_CHECKING
 
 import jax
+import jax.numpy as jnp
 
+from soe_jax.envs import observations
 from soe_jax.experts import registry as expert_registry
 from soe_jax.experts import script
 from soe_jax.types import Strategy
@@ -37,6 +39,32 @@ def task_env(strategy: str, env: ManipulationEnv | None) -> ManipulationEnv:
   if env is None:
     raise ValueError(f"strategy {strategy!r} follows the task's demonstrator and needs its environment (env=...)")
   return env
+
+
+@dataclasses.dataclass(frozen=True)
+class ScriptedChooser:
+  """DESIGN.md's oracle chooser for `soe_steer`: the proposal whose end-effector paths (its commanded
+  positions, every arm's) are closest in mean L2 distance to the scripted demonstrator's next positions
+  from the current state."""
+
+  env: ManipulationEnv
+  expert: script.ScriptedExpert | script.BimanualExpert
+
+  @classmethod
+  def create(cls, strategy: str, env: ManipulationEnv | None) -> ScriptedChooser:
+    env = task_env(strategy, env)
+    return cls(env, expert_registry.make_expert(env.name))
+
+  def positions(self, actions: jax.Array) -> jax.Array:
+    """(..., A) actions -> (..., R, 3): each arm's commanded position."""
+    return observations.action_positions(actions, self.env.num_robots)
+
+  def __call__(self, candidates: jax.Array, env_state, key):
+    """candidates (B, C, Ta, A) raw -> (index (B,), distance (B,))."""
+    reference = demonstrate(self.env, self.expert, env_state, candidates.shape[2])
+    gap = jnp.linalg.norm(self.positions(candidates) - self.positions(reference)[:, None], axis=-1)  # (B, C, Ta, R)
+    dist = jnp.mean(gap, axis=(-2, -1))
+    return jnp.argmin(dist, axis=1), jnp.min(dist, axis=1)
 
 
 @dataclasses.dataclass(frozen=True)

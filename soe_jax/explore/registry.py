@@ -1,13 +1,14 @@
 """Exploration strategies by name (`explore.strategy.name` in configs, with its settings in
 `explore.strategy.kwargs`). Adding one: a file with a `Strategy` dataclass (imitate `soe.py`) and a
-line below."""
+line below. `expert` imports the simulator and is registered by where it is defined, so that code
+reading the other strategies' settings (a robot's server) does not load it."""
 
 from __future__ import annotations
 
 import dataclasses
 from typing import TYPE_CHECKING
 
-from soe_jax.explore import dp, expert, sime, soe, steer
+from soe_jax.explore import dp, sime, soe, steer
 from soe_jax.registry import Registry
 from soe_jax.types import Strategy
 
@@ -54,4 +55,4 @@ register_strategy("dp", dp.Dp)
 register_strategy("sime", sime.Sime)
 register_strategy("soe", soe.Soe)
 register_strategy("soe_steer", steer.SoeSteer)
-register_strategy("expert", expert.Expert)
+register_strategy("expert", "soe_jax.explore.expert:Expert")

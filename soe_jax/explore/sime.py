@@ -12,6 +12,8 @@ from soe_jax.policies.normalizer import Normalizer
 from soe_jax.policies.policy import Policy
 from soe_jax.types import CondFn, Strategy
 
+IMAGE_SCALE = 0.5  # SIME's noise scale for image tasks (its state tasks': `Sime.scale`)
+
 
 def gamma(u: jax.Array, tau1: float = 0.0, tau2: float = 1.0) -> jax.Array:
   """CADS' linear schedule: 1 for u <= tau1, 0 for u >= tau2, linear in between."""
@@ -50,7 +52,7 @@ def cond_fn(policy: Policy, normalizer: Normalizer, scale: float, tau1: float = 
 
 @dataclasses.dataclass(frozen=True)
 class Sime(Strategy):
-  scale: float = 0.01  # SIME's raw-unit noise scale for state tasks (0.5 for image tasks: the `image` preset)
+  scale: float = 0.01  # SIME's raw-unit noise scale for state tasks (`IMAGE_SCALE` for image tasks)
   tau1: float = 0.0
   tau2: float = 1.0
   name = "sime"

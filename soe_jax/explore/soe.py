@@ -15,11 +15,12 @@ import jax
 from soe_jax.types import Strategy
 
 _HOLD_STREAM = 0x50E  # the held noise's keys: a stream of their own beside the per-decision keys
+ALPHA = 2.0  # the paper's exploration scale for most tasks (soe's, and steering's, default)
 
 
 @dataclasses.dataclass(frozen=True)
 class Soe(Strategy):
-  alpha: float = 2.0  # the paper's exploration scale for most tasks
+  alpha: float = ALPHA
   hold: int = 1  # decisions that share one draw of the latent's noise
   name = "soe"
 

@@ -6,47 +6,25 @@ that follows the task's demonstrator; the steering page puts a person in its pla
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
+from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
 
-from soe_jax.envs import observations
-from soe_jax.experts import registry as expert_registry
-from soe_jax.experts import script
-from soe_jax.explore import expert as expert_strategy
-from soe_jax.explore import steering
+from soe_jax import registry
+from soe_jax.explore import soe, steering
 from soe_jax.policies import agent as agent_lib
 from soe_jax.types import Chooser, Strategy
-
-if TYPE_CHECKING:
-  from soe_jax.envs.manipulation import ManipulationEnv
-
-
-@dataclasses.dataclass(frozen=True)
-class ScriptedChooser:
-  """DESIGN.md's oracle chooser: the proposal whose end-effector paths (its commanded positions, every
-  arm's) are closest in mean L2 distance to the scripted demonstrator's next positions from the
-  current state."""
-
-  env: ManipulationEnv
-  expert: script.ScriptedExpert | script.BimanualExpert
-
-  def __call__(self, candidates: jax.Array, env_state, key):
-    """candidates (B, C, Ta, A) raw -> (index (B,), distance (B,))."""
-    reference = expert_strategy.demonstrate(self.env, self.expert, env_state, candidates.shape[2])
-    positions = lambda a: observations.action_positions(a, self.env.num_robots)
-    gap = jnp.linalg.norm(positions(candidates) - positions(reference)[:, None], axis=-1)  # (B, C, Ta, R)
-    dist = jnp.mean(gap, axis=(-2, -1))
-    return jnp.argmin(dist, axis=1), jnp.min(dist, axis=1)
 
 
 @dataclasses.dataclass(frozen=True)
 class SoeSteer(Strategy):
   """Steering along `dims` with `chooser`. `prepare` sets `dims`: the effective latent dimensions over
-  `snr_windows` windows of the round's data (SNR above `threshold_db`), at most `max_dims` (0: all)."""
+  `snr_windows` windows of the round's data (SNR above `threshold_db`), at most `max_dims` (0: all).
+  `positions` maps actions (..., A) to each arm's commanded position (..., R, 3), over which the
+  proposals are spread. This module imports no simulator (a robot's server reads these settings)."""
 
-  alpha: float = 2.0
+  alpha: float = soe.ALPHA
   num_proposals: int = 32
   num_choices: int = 5
   every: int = 1
@@ -54,15 +32,16 @@ class SoeSteer(Strategy):
   max_dims: int = 0
   snr_windows: int = 2048
   chooser: Chooser = dataclasses.field(default=None, metadata=dict(setting=False))
-  num_robots: int = dataclasses.field(default=1, metadata=dict(setting=False))  # the task's arms
+  positions: Callable[[jax.Array], jax.Array] = dataclasses.field(default=None, metadata=dict(setting=False))
   dims: tuple[int, ...] = dataclasses.field(default=(), metadata=dict(setting=False))
   name = "soe_steer"
 
   @classmethod
   def create(cls, env=None, **settings):
-    env = expert_strategy.task_env(cls.name, env)
-    chooser = ScriptedChooser(env, expert_registry.make_expert(env.name))
-    return cls(chooser=chooser, num_robots=env.num_robots, **settings)
+    # The scripted chooser follows the task's demonstrator, which imports the simulator: loaded by name
+    # (as the registries load tasks) so that reading steering's settings imports none of it.
+    chooser = registry.load("soe_jax.explore.expert:ScriptedChooser").create(cls.name, env)
+    return cls(chooser=chooser, positions=chooser.positions, **settings)
 
   def snr(self, agent, buffer, key) -> jax.Array:
     """(d,) SNR in dB of the agent's latent dimensions over the buffer's data."""
@@ -70,13 +49,16 @@ class SoeSteer(Strategy):
 
   def prepare(self, agent, buffer, key):
     snr = self.snr(agent, buffer, key)
-    dims = steering.effective_dims(snr, self.threshold_db, self.max_dims or None)
+    dims = self.effective_dims(snr)
     return dataclasses.replace(self, dims=dims), dict(snr_db=[round(float(x), 2) for x in snr], steer_dims=list(dims))
 
+  def effective_dims(self, snr_db) -> tuple[int, ...]:
+    """The dimensions steered along, given each latent dimension's SNR in dB (highest first)."""
+    return steering.effective_dims(snr_db, self.threshold_db, self.max_dims or None)
+
   def candidates(self, agent, obs_history, key, dims: tuple[int, ...]):
-    positions = lambda a: observations.action_positions(a, self.num_robots)
     return steering.candidates(
-      agent, obs_history, key, dims, self.alpha, self.num_proposals, self.num_choices, positions
+      agent, obs_history, key, dims, self.alpha, self.num_proposals, self.num_choices, self.positions
     )
 
   def __call__(self, agent, obs_history, env_state, key):

@@ -180,7 +180,9 @@ def test_steer_picks_the_chosen_candidate_at_every_kth_decision():
       b, c = candidates.shape[:2]
       return jnp.full(b, c - 1), jnp.zeros(b)
 
-  steering_strategy = steer.SoeSteer(chooser=Last(), dims=(1,), num_proposals=8, num_choices=3, every=2)
+  steering_strategy = steer.SoeSteer(
+    chooser=Last(), positions=POSITIONS, dims=(1,), num_proposals=8, num_choices=3, every=2
+  )
   key = jax.random.PRNGKey(9)
   state = lambda step: type("S", (), {"info": {"steps": jnp.full(2, step)}})()
   chunk, aux = steering_strategy(agent, obs, state(0), key)

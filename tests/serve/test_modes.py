@@ -1,14 +1,19 @@
-"""The server's modes and its recorder, in-process: each mode's chunk, steering's choice and timeout,
-episodes recorded from the observations since each request and written only when labelled, and Table
-I's numbers from what was written."""
+"""The server's modes and its recorder, in-process: each mode's strategy at the registry's defaults,
+each mode's chunk, steering's choice and timeout, episodes recorded from the observations since each
+request and written only when labelled, and Table I's numbers from what was written."""
+
+import subprocess
+import sys
+import types
 
 import numpy as np
 import pytest
 
 from soe_jax.analysis import labelled
+from soe_jax.commands import serve as serve_command
 from soe_jax.data import lerobot
 from soe_jax.data.spec import PolicySpec
-from soe_jax.explore import sime
+from soe_jax.explore import registry, sime
 from soe_jax.policies import agent as agent_lib
 from soe_jax.serve import modes as modes_lib
 from soe_jax.serve import recorder as recorder_lib
@@ -22,13 +27,52 @@ SNR = [6.0, -3.0, 2.0] + [-10.0] * 13  # dims 0 and 2 carry signal
 def served():
   spec = PolicySpec.from_dict(dict(SPEC, observations={"observation.state": SPEC["observations"]["state"]}))
   agent = _agent(spec)
-  modes = modes_lib.Modes(agent, spec, modes_lib.Settings(num_proposals=6, num_choices=2), SNR)
+  modes = modes_lib.Modes(agent, spec, dict(steer=dict(num_proposals=6, num_choices=2)), SNR)
   return agent, spec, modes
 
 
 def _obs(rng, k=None):
   shape = (7,) if k is None else (k, 7)
   return {"observation.state": rng.uniform(-0.2, 0.2, size=shape).astype(np.float32)}
+
+
+def test_every_mode_runs_its_strategy_at_the_registry_defaults(served):
+  """A setting's default is written once, in its strategy: every exploring mode built with nothing given
+  has its registry entry's defaults (SIME's image scale for an image policy), and the serve command
+  states none of its own."""
+  agent, spec, _ = served
+  modes = modes_lib.Modes(agent, spec, snr_db=SNR)
+  assert set(modes_lib.STRATEGIES) == set(modes_lib.MODES) - {"base"}
+  for mode, name in modes_lib.STRATEGIES.items():
+    defaults = registry.default_settings(name)
+    assert modes.settings[mode] == defaults, mode
+    assert modes.strategies[mode].name == name
+    assert {k: getattr(modes.strategies[mode], k) for k in defaults} == defaults, mode
+  soe, sime_, steer = (registry.default_settings(n) for n in ("soe", "sime", "soe_steer"))
+  meta = modes.describe()
+  assert meta["settings"] == modes.settings
+  assert (meta["soe_alpha"], meta["sime_scale"]) == (soe["alpha"], sime_["scale"]) and steer["alpha"] == soe["alpha"]
+  assert meta["steer"]["proposals_per_dim"] == steer["num_choices"] and meta["steer"]["threshold_db"] == 0.0
+  assert modes.dims == (0, 2)  # steering's max_dims (0: every dimension above its threshold)
+
+  image = types.SimpleNamespace(image_keys=("agentview_image",))
+  assert modes_lib.mode_settings(image)["sime"] == dict(sime_, scale=sime.IMAGE_SCALE)
+  given = modes_lib.mode_settings(image, dict(soe=dict(alpha=1.0), sime=dict(scale=0.2), steer=dict(max_dims=1)))
+  assert (given["soe"]["alpha"], given["sime"]["scale"], given["steer"]["max_dims"]) == (1.0, 0.2, 1)
+  assert modes_lib.Modes(agent, spec, dict(steer=dict(max_dims=1)), SNR).dims == (0,)
+  with pytest.raises(ValueError, match="strategy 'soe_steer' has no setting 'speed'"):
+    modes_lib.mode_settings(agent.policy, dict(steer=dict(speed=1)))
+  with pytest.raises(ValueError, match="hold 1"):
+    modes_lib.mode_settings(agent.policy, dict(soe=dict(hold=2)))
+  for flag in ("alpha", "sime_scale", "steer_dims", "steer_choices"):
+    assert serve_command.FLAGS[flag].default is None, flag
+
+
+def test_the_modes_import_no_simulator():
+  """A robot's server reads the strategies' settings without importing `soe_jax.envs`."""
+  code = "import sys, soe_jax.serve.modes; print(sorted(m for m in sys.modules if m.startswith('soe_jax.envs')))"
+  out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+  assert out.strip() == "[]"
 
 
 def test_each_mode_gives_its_own_path(served):
