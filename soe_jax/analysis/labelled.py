@@ -202,8 +202,8 @@ def methods_markdown(t: dict) -> str:
     lines.append(f"Before the re-fit ({before['dataset']}): {_rate(before)} of {before['num_episodes']}")
   fps = sorted({row["explore"]["fps"] for row in t["methods"].values() if row["explore"] is not None})
   jerk = f"jerk ({', '.join(f'{f:g}' for f in fps)} Hz)" if fps else "jerk"
-  lines += ["", f"| method | explored | success [95% CI] | Pass@{k} [95% CI] | rollouts (states with {k} tries) | {jerk} "
-            "| success after [95% CI] | change [95% CI] | relative | Fisher p | vs before, paired by state |",
+  lines += ["", f"| method | explored | success [95% CI] | Pass@{k} [95% CI] | rollouts (states with {k} tries) "
+            f"| {jerk} | success after [95% CI] | change [95% CI] | relative | Fisher p | vs before, paired by state |",
             "|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
   notes = []
   for name, row in t["methods"].items():

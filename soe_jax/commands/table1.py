@@ -26,7 +26,8 @@ from soe_jax.runtime.errors import UserError
 
 USAGE = (
   "python -m soe_jax table1 RECORDED [--before=EVAL0 --after=EVAL1] [--k=5] [--spec=DIR] [--out=FILE], or "
-  "python -m soe_jax table1 [--before=EVAL0] --method NAME=EXPLORE:AFTER [--method ...] [--k=5] [--spec=DIR] [--out=FILE]"
+  "python -m soe_jax table1 [--before=EVAL0] --method NAME=EXPLORE:AFTER [--method ...] [--k=5] [--spec=DIR] "
+  "[--out=FILE]"
 )
 
 FLAGS = cli.Flags()
