@@ -39,4 +39,4 @@ def table(rows: list[dict], pairs: list[tuple[str, str]]) -> str:
       pairs_ = [(last(refs[run["seed"]]), last(run)) for run in by[task, arm]["runs"] if run["seed"] in refs]
       c = aggregate.comparison(pairs_)
       out.append([task, arm, ref, c["seeds"] if c else 0, aggregate.paired_cell(c)])
-  return markdown(["task", "arm", "against", "seeds", "difference, gained / lost, p"], out)
+  return markdown(["task", "arm", "against", "seeds", "difference, gained / lost, pooled p"], out)

@@ -155,17 +155,19 @@ def _rate(outcomes) -> float:
   return float(np.mean(np.asarray(outcomes, float)))
 
 
-def success_fits(rows: list[dict], task: str) -> dict[str, dict]:
+def success_fits(rows: list[dict], task: str, oracle: bool = False) -> dict[str, dict]:
   """The family of success on `task`: {fit: {seed: per-state outcomes}} for the control's last round,
   its round 0, and each arm's last round whose round 0 is the control's on every seed (the oracle arms,
-  `expert_data`, left out: near the ceiling their seed-to-seed spread is not the others')."""
+  `expert_data`, only with `oracle`: near the ceiling their seed-to-seed spread is not the others')."""
   control = next((r for r in rows if r["task"] == task and r["method"] == "control" and not r["variant"]), None)
   if control is None:
     return {}
   base = {r["seed"]: r["outcomes"]["evaluate"]["0"] for r in control["runs"]}
   fits = {"control": {r["seed"]: r["outcomes"]["evaluate"][r["last"]] for r in control["runs"]}, "round 0": base}
   for r in rows:
-    if r["task"] != task or r is control or r["method"].split("-")[0] == "control" or "expert_data" in r["method"]:
+    if r["task"] != task or r is control or r["method"].split("-")[0] == "control":
+      continue
+    if "expert_data" in r["method"] and not oracle:
       continue
     runs = [run for run in r["runs"] if run["last"] not in (None, "0")]
     if runs and all(run["seed"] in base and run["outcomes"]["evaluate"]["0"] == base[run["seed"]] for run in runs):

@@ -109,7 +109,7 @@ def table(rows: list[dict]) -> str:
     method = f"{row['method']}{row['variant'] and ' (' + row['variant'] + ')'}"
     out.append([row["task"], method, row["seeds"], *success, step, passes, rollouts])
   header = ["task", "method", "seeds", *(f"success, round {r}" for r in range(width)),
-            "each round vs the one before: difference, p", "Pass@5 per round", "rollouts per round"]  # fmt: skip
+            "each round vs the one before: difference, pooled p", "Pass@5 per round", "rollouts per round"]  # fmt: skip
   return markdown(header, out)
 
 

@@ -22,6 +22,7 @@ import os
 import re
 
 from soe_jax.analysis import against, aggregate, claims, over_rounds, records, seed_level
+from soe_jax.analysis import figures as figures_lib
 from soe_jax.analysis.tables import markdown, pct, spread
 from soe_jax.runtime import atomic
 
@@ -77,7 +78,7 @@ def campaign_table(rows: list[dict]) -> str:
     ])  # fmt: skip
   header = ["task", "method", "seeds", "Pass@5", "avg. jerk (m/s^3)", "rollouts", "kept (mean length)", "success before",
             "success after (pooled [95% CI], episodes)", "relative improvement",
-            "vs round 0: difference, gained / lost, p", "vs control: difference, gained / lost, p"]  # fmt: skip
+            "vs round 0: difference, gained / lost, pooled p", "vs control: difference, gained / lost, pooled p"]  # fmt: skip
   return markdown(header, out)
 
 
@@ -152,8 +153,10 @@ def family_line(folder: str, task: str) -> str:
 # `-brief` for their verdicts alone), naming them.
 _BEGIN = re.compile(r"^<!-- table: (\S+)((?: \S+:\S+)*) -->$")
 _CLAIMS = re.compile(r"^<!-- claims(-brief)?: (\S+(?: \S+)*) -->$")
-# A generated figure of rounds (`over_rounds.figure`): this line names its results folder and its file.
+# A generated figure of rounds (`over_rounds.figure`): this line names its results folder and its file;
+# or a figure of the claims (`figures.KINDS`): its kind, its arguments (folders, pairs) and its file.
 _FIGURE = re.compile(r"^<!-- figure: (\S+) (\S+) -->$")
+_FIGURE_KIND = re.compile(r"^<!-- figure (\w+): (\S+(?: \S+)*) (\S+\.png) -->$")
 _END = "<!-- /table -->"
 DOCS = ("README.md", "RESULTS.md", "BENCHMARKS.md")
 
@@ -180,8 +183,14 @@ def regenerate(text: str) -> str:
   return "".join(out)
 
 
+def figure_markers(text: str) -> list[tuple[str, list[str], str]]:
+  """The figures of the claims that `text` names: (kind, arguments, path)."""
+  return [(m.group(1), m.group(2).split(), m.group(3)) for line in text.splitlines() if (m := _FIGURE_KIND.match(line))]
+
+
 def figures(text: str) -> list[str]:
-  """Draw every figure of rounds that `text` names (`<!-- figure: RESULTS_DIR PATH -->`); their paths."""
+  """Draw every figure that `text` names (`<!-- figure: RESULTS_DIR PATH -->` for rounds, `<!-- figure
+  KIND: ARGS PATH -->` for the claims' figures, their plotted data beside them); their paths."""
   drawn = []
   for line in text.splitlines():
     if m := _FIGURE.match(line):
@@ -190,6 +199,11 @@ def figures(text: str) -> list[str]:
         raise FileNotFoundError(f"{line.strip()}: no exported runs in {m.group(1)!r}")
       over_rounds.figure(aggregate.rows(runs), m.group(2))
       drawn.append(m.group(2))
+  for kind, args, path in figure_markers(text):
+    if kind not in figures_lib.KINDS:
+      raise ValueError(f"unknown figure kind {kind!r}; known: {', '.join(figures_lib.KINDS)}")
+    figures_lib.make(kind, args, path)
+    drawn.append(path)
   return drawn
 
 

@@ -179,6 +179,36 @@ def test_the_docs_tables_are_what_their_committed_results_give(monkeypatch):
     assert results.regenerate(text) == text, f"{path} is stale: run python -m soe_jax results --docs"
 
 
+def test_the_docs_figures_plot_what_their_committed_results_give(monkeypatch):
+  """Each figure of the claims that the documents name is drawn from its plotted data, committed beside
+  it; recomputed from the records, that data is unchanged (the pixels are not compared)."""
+  from soe_jax.analysis import figures
+
+  monkeypatch.chdir(ROOT)
+  found = [m for path in results.DOCS for m in results.figure_markers(open(path).read())]
+  assert {kind for kind, _, _ in found} >= {"forest", "kept", "rounds"}
+  for kind, args, path in found:
+    assert os.path.exists(path), f"{path} is missing: run python -m soe_jax results --docs"
+    committed = json.load(open(figures.data_path(path)))
+    recomputed = json.loads(json.dumps(figures.KINDS[kind][0](args)))
+    assert recomputed == committed, f"{path}'s data is stale: run python -m soe_jax results --docs"
+
+
+def test_no_statement_beyond_its_records_remains():
+  """Statements a reading of the records refuted stay out of the documents (lines joined, whitespace
+  ignored): the steering preset's cap is not the latent's effective dimensions; soe_steer steers every
+  fourth decision; +62% is SOE with steering."""
+  import re
+
+  for path in ("README.md", "RESULTS.md", "docs/guide.md"):
+    text = " ".join(open(os.path.join(ROOT, path)).read().split())
+    assert not re.search(r"\b2 effective dimensions", text), path
+    assert not re.search(r"at each decision", text), path
+    assert not re.search(r"SOE[^.]{0,40}\+19% to \+62%", text), path
+    assert not re.search(r"not what limits the round", text), path
+    assert not re.search(r"Human-like demonstrations", text), path
+
+
 def test_a_campaign_of_controls_alone_gets_its_table_and_no_empty_claims(monkeypatch):
   """A campaign that ran only a control (the demonstration-count calibration) tests no claim of the
   paper: its table ends at its last row, without the blank line of an empty claims list."""
