@@ -6,8 +6,8 @@ runs round 0 and one round of SOE exploration, re-fit and evaluation (soe_jax/ex
 each preset does), leaving metrics.jsonl, report.md and plots in runs/lift-soe-seed0/. Swap `soe` for
 `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
 
-Demonstrations: 10, robomimic's core_10 for Lift; under the `cpu` preset 5 varied ones (human-like
-paths, grasps and pacing: RESULTS.md, "Human-like demonstrations") under SIME's protocol, with a
+Demonstrations: 10, robomimic's core_10 for Lift; under the `cpu` preset 5 varied scripted ones (styles of
+paths, grasps and pacing drawn per episode: RESULTS.md, "Varied scripted demonstrations") under SIME's protocol, with a
 12.5k-step round-0 fit, which every round repeats from fresh parameters. From 10, round 0 succeeds
 almost everywhere (99.0% of 200 evaluation start states, seed 0) and leaves nothing to improve; from
 6, on 80.5% over 3 seeds; from 5, on 77.2% (74.0, 78.0, 79.5; results/protocol-count/picked-lift-n5/),

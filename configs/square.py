@@ -6,8 +6,8 @@ runs round 0 and one round of SOE exploration, re-fit and evaluation (soe_jax/ex
 each preset does), leaving metrics.jsonl, report.md and plots in runs/square-soe-seed0/. Swap `soe` for
 `dp`, `sime` or `soe_steer` to run another method from the same (shared) round 0.
 
-Demonstrations: 20, robomimic's core_20 as SIME uses it; under the `cpu` preset varied ones (human-like
-paths, grasps and pacing: RESULTS.md, "Human-like demonstrations"), under SIME's protocol, with a
+Demonstrations: 20, robomimic's core_20 as SIME uses it; under the `cpu` preset varied scripted ones (styles of
+paths, grasps and pacing drawn per episode: RESULTS.md, "Varied scripted demonstrations"), under SIME's protocol, with a
 20k-step round-0 fit, which every round repeats from fresh parameters: round 0 succeeds on 72.0% of 200
 evaluation start states (seed 0, the README's first command, on an Intel Xeon; its round of SOE ends at
 75.0%, one seed without its control, an anecdote; 72.5% and 73.5% on an AMD EPYC). On scripted
