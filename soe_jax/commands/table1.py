@@ -76,7 +76,7 @@ def _table1(argv: list[str]) -> None:
     spec = spec_lib.load(FLAGS.spec)
     if spec is None:
       raise UserError(f"--spec: {FLAGS.spec} has no {spec_lib.SPEC_FILE}")
-    positions = spec.position_indices()
+    positions = spec.position_indices(robot=True)  # (the recordings hold the robot's action)
   try:
     read = lambda root: None if root is None else labelled.read(root, positions)
     if methods:

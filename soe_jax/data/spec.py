@@ -10,7 +10,8 @@ state, so a policy loads without the simulator's task registry; a task fills it
    "action_frame": "world", "control_hz": 20.0,
    "action_box": [{"position": [[x, y, z], [x, y, z]]}],   per arm, a part's lowest and highest values
    "poses": [{"position": "robot0_eef_pos", "orientation": "robot0_eef_quat", "quat_order": "xyzw"}],
-   "action_norm": [{"gripper": "range"}]}   per arm, how a part is normalised (default: position range)
+   "action_norm": [{"gripper": "range"}],   per arm, how a part is normalised (default: position range)
+   "robot_rotations": [{"part": "axis_angle", "convention": "rotvec", "degrees": false}]}
 
 The low-dimensional observation keys are concatenated in the order given (images are not); the action
 is the arms' blocks one after another. `action_box` (optional) bounds the parts it names: the policy's
@@ -19,7 +20,10 @@ command anything inside it and nothing outside. `poses` (optional) names each ar
 among the observations, which relative actions are expressed in (`policies.frames`). `action_norm`
 (optional) says per arm which parts the normaliser maps to [-1, 1] ("range") and which it leaves as
 they are ("identity"): positions by range, rotation-6d and the simulator's gripper (already in
-[-1, 1]) as they are, by default; a real gripper in metres or counts by range.
+[-1, 1]) as they are, by default; a real gripper in metres or counts by range. `robot_rotations`
+(optional, `data.rotations`) says per arm which rotation part of the robot's own action, in which
+convention, the policy's rotation-6d was converted from (None: none): the robot's recordings hold that
+part, and the server's replies convert back to it (`to_robot`).
 """
 
 from __future__ import annotations
@@ -30,6 +34,8 @@ import math
 import os
 
 import numpy as np
+
+from soe_jax.data import rotations
 
 SPEC_FILE = "spec.json"
 ACTION_FRAMES = ("world", "delta")  # absolute poses in the world frame | robomimic's scaled increments
@@ -44,6 +50,7 @@ class PolicySpec:
   action_box: list | None = None  # per arm: {part: [lo (size,), hi (size,)]}
   poses: list | None = None  # per arm: {"position": key, "orientation": key, "quat_order": "xyzw" | "wxyz"}
   action_norm: list | None = None  # per arm: {part: "range" | "identity"} (default: position range)
+  robot_rotations: list | None = None  # per arm: a robot's rotation convention (`data.rotations`) or None
 
   def __post_init__(self):
     if self.action_frame not in ACTION_FRAMES:
@@ -61,6 +68,14 @@ class PolicySpec:
             raise ValueError(f"action_box: arm {k} has no part {part!r}; its parts: {', '.join(sizes)}")
           if not (len(lo) == len(hi) == sizes[part]) or not all(a < b for a, b in zip(lo, hi)):
             raise ValueError(f"action_box: arm {k}'s {part} needs {sizes[part]} lows below their highs, got {lo}, {hi}")
+    if self.robot_rotations is not None:
+      if len(self.robot_rotations) != len(self.actions):
+        raise ValueError(f"robot_rotations has {len(self.robot_rotations)} arms, the actions {len(self.actions)}")
+      for k, (arm, c) in enumerate(zip(self.actions, self.robot_rotations)):
+        if c and ["rotation_6d", 6] not in [list(p) for p in arm]:
+          raise ValueError(f"robot_rotations: arm {k} converts {c['part']} to rotation_6d, which its action lacks")
+        if c and c != rotations.convention(c["part"], c["convention"], c["convention"], c.get("degrees", False)):
+          raise ValueError(f"robot_rotations: arm {k}'s {c} is not a convention (data.rotations)")
 
   @property
   def lowdim_keys(self) -> tuple[str, ...]:
@@ -109,10 +124,32 @@ class PolicySpec:
         out += [how == "range"] * size
     return np.asarray(out, bool)
 
-  def position_indices(self) -> list[list[int]]:
-    """Per arm, the action's indices of its commanded position (empty for an arm without one)."""
+  @property
+  def robot_actions(self) -> list:
+    """The robot's action layout (its recordings' and the server's replies'): the policy's, with each
+    converted arm's rotation-6d as the robot's own rotation part."""
+    if self.robot_rotations is None:
+      return self.actions
+    return [[[c["part"], rotations.PARTS[c["part"]]] if c and part == "rotation_6d" else [part, size]
+             for part, size in arm] for arm, c in zip(self.actions, self.robot_rotations)]  # fmt: skip
+
+  def to_robot(self, actions) -> np.ndarray:
+    """(..., action_dim) policy actions -> the robot's layout (float32; as they are without conversion)."""
+    if self.robot_rotations is None:
+      return np.asarray(actions, np.float32)
+    return rotations.convert(actions, self.actions, self.robot_rotations, to_policy=False)
+
+  def from_robot(self, actions) -> np.ndarray:
+    """(..., robot's action size) actions as the robot records them -> the policy's layout (float32)."""
+    if self.robot_rotations is None:
+      return np.asarray(actions, np.float32)
+    return rotations.convert(actions, self.robot_actions, self.robot_rotations, to_policy=True)
+
+  def position_indices(self, robot: bool = False) -> list[list[int]]:
+    """Per arm, the action's indices of its commanded position (empty for an arm without one), in the
+    policy's action or (`robot`) the robot's (`robot_actions`)."""
     out, start = [], 0
-    for arm in self.actions:
+    for arm in self.robot_actions if robot else self.actions:
       idx = []
       for part, size in arm:
         if part == "position":
@@ -122,7 +159,10 @@ class PolicySpec:
     return out
 
   def to_dict(self) -> dict:
-    return dataclasses.asdict(self)
+    d = dataclasses.asdict(self)
+    if d["robot_rotations"] is None:  # (a spec saved before the field existed reads the same)
+      del d["robot_rotations"]
+    return d
 
   @classmethod
   def from_dict(cls, d: dict, source: str = "spec") -> PolicySpec:
@@ -137,6 +177,7 @@ class PolicySpec:
       action_box=d.get("action_box"),
       poses=d.get("poses"),
       action_norm=d.get("action_norm"),
+      robot_rotations=d.get("robot_rotations"),
     )
 
 

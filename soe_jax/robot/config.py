@@ -1,7 +1,8 @@
 """The config of a policy for a robot of one's own, fitted on files: `configs/robot.py` calls `config(arg)`.
 
 Sections: `dataset` (where the demonstrations are and what the spec cannot read from them: the action's
-layout per arm, how each part is normalised, each arm's end-effector pose, an action box), `policy` and
+layout per arm, how each part is normalised, each arm's end-effector pose, an action box, the
+rotation's convention and whether the policy gets it as rotation-6d), `policy` and
 `fit` (the simulated tasks' own sections, `experiment.sections`), `data` (the training buffer), `refit`
 (what `refit` adds and how it fits). Presets after the colon: `smoke` (tiny, seconds), `cpu` (the
 narrow UNet recipe that converged fastest on a 2-core CPU), `image` (the cameras through robomimic's
@@ -34,6 +35,21 @@ def normalize() -> ml_collections.ConfigDict:
   )
 
 
+def rotation() -> ml_collections.ConfigDict:
+  """`dataset.rotation`: a robot's rotation part (an arm's `axis_angle`, `quaternion` or `euler` in
+  `dataset.actions`) and its convention (`data.rotations`). to_6d: the part becomes `rotation_6d` when
+  the dataset is read (the policy's, continuous, as `policy.action_frame=chunk_relative` needs) and the
+  server turns every reply back into the robot's convention, as its recordings hold it."""
+  return ml_collections.ConfigDict(
+    dict(
+      to_6d=False,
+      quaternion="xyzw",  # the components' order: xyzw (scipy, ROS) or wxyz (MuJoCo, Eigen's constructor)
+      euler="xyz",  # the axes, scipy's way: lowercase extrinsic (xyz: roll, pitch, yaw), uppercase intrinsic
+      degrees=False,  # Euler angles and the axis-angle vector's length in degrees (else radians)
+    )
+  )
+
+
 def base_config() -> ml_collections.ConfigDict:
   c = ml_collections.ConfigDict()
   c.seed = 0
@@ -44,9 +60,19 @@ def base_config() -> ml_collections.ConfigDict:
   # [-1, 1]; identity: left as it is, for a part already in [-1, 1]). poses: per arm {"position": key
   # or [key, offset], "orientation": key or [key, offset], "quat_order": "xyzw" | "wxyz"} (needed by
   # policy.action_frame=chunk_relative). action_box: per arm {"position": [[lo x, y, z], [hi x, y, z]]}
-  # the robot may be commanded in (with policy.action_range=workspace), or ().
+  # the robot may be commanded in (with policy.action_range=workspace), or (). rotation: the rotation
+  # part's convention, and whether the policy gets it as rotation-6d (`rotation`).
   c.dataset = ml_collections.ConfigDict(
-    dict(path="", observations=(), image_size=(0, 0), actions=(ARM,), normalize=normalize(), poses=(), action_box=())
+    dict(
+      path="",
+      observations=(),
+      image_size=(0, 0),
+      actions=(ARM,),
+      normalize=normalize(),
+      poses=(),
+      action_box=(),
+      rotation=rotation(),
+    )
   )
   c.policy = sections.policy()
   c.policy.action_range = "demonstrations"  # the data's widened range, unless a box is stated

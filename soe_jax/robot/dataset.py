@@ -5,7 +5,9 @@ The spec's observations are the dataset's `observation.*` features (or the confi
 low-dimensional vectors as they are, cameras resized to `dataset.image_size` when read; its actions the
 `action` feature laid out as `dataset.actions` says, in the world frame, at the dataset's `fps`; each
 part normalised by its range or left as it is, as `dataset.normalize` says per part (a part it does not
-name: by range).
+name: by range). With `dataset.rotation.to_6d`, each arm's axis-angle, quaternion or Euler part is
+read as rotation-6d in the convention `dataset.rotation` states (`data.rotations`); the spec keeps
+the robot's convention (`robot_rotations`), so the server replies in it and the recordings hold it.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from __future__ import annotations
 import ml_collections
 import numpy as np
 
-from soe_jax.data import lerobot
+from soe_jax.data import lerobot, rotations
 from soe_jax.data.spec import PolicySpec
 from soe_jax.runtime.errors import UserError
 
@@ -46,6 +48,22 @@ def action_norm(dataset: ml_collections.ConfigDict, arms: list) -> list[dict]:
   return [{part: rules.get(part, "range") for part, _ in arm} for arm in arms]
 
 
+def robot_rotations(dataset: ml_collections.ConfigDict, arms: list) -> list | None:
+  """Per arm the convention of the rotation part the policy gets as rotation-6d (`dataset.rotation`),
+  or None where nothing converts (a config saved before the section existed converts nothing)."""
+  if "rotation" not in dataset or not dataset.rotation.to_6d:
+    return None
+  r = dataset.rotation
+  try:
+    out = rotations.arm_conventions(arms, r.quaternion, r.euler, r.degrees)
+  except ValueError as e:
+    raise UserError(f"dataset.rotation: {e}") from None
+  if not any(out):
+    raise UserError(f"dataset.rotation.to_6d: no arm of dataset.actions has a part {', '.join(rotations.PARTS)} to "
+                    f"convert: {arms}")  # fmt: skip
+  return out
+
+
 def spec_from_info(info: dict, dataset: ml_collections.ConfigDict, root: str = "the dataset") -> PolicySpec:
   """The spec of a policy for the dataset whose `meta/info.json` is `info`, under the robot config's
   `dataset` section (UserError naming what does not fit)."""
@@ -71,32 +89,44 @@ def spec_from_info(info: dict, dataset: ml_collections.ConfigDict, root: str = "
   (a_dim,) = features["action"]["shape"]
   if size_a != a_dim:
     raise UserError(f"{root}: the action feature has {a_dim} numbers, dataset.actions lays out {size_a}: {arms}")
+  convs = robot_rotations(dataset, arms)
+  policy_arms = rotations.policy_arms(arms, convs) if convs else arms
   try:
     return PolicySpec(
       observations=observations,
-      actions=arms,
+      actions=policy_arms,
       action_frame="world",
       control_hz=float(info["fps"]),
       action_box=_plain(dataset.action_box) or None,
       poses=_plain(dataset.poses) or None,
-      action_norm=action_norm(dataset, arms),
+      action_norm=action_norm(dataset, policy_arms),
+      robot_rotations=convs,
     )
   except ValueError as e:
     raise UserError(f"{root}: {e}") from None
 
 
+def spec_of(root: str, dataset: ml_collections.ConfigDict) -> PolicySpec:
+  """The spec of the LeRobotDataset at `root` from its info alone (nothing of its episodes read)."""
+  try:
+    return spec_from_info(lerobot.read_info(root), dataset, root)
+  except lerobot.DatasetError as e:
+    raise UserError(str(e)) from None
+
+
 def read(root: str, dataset: ml_collections.ConfigDict, episodes=None, progress: bool = False):
   """(spec, episodes) of the LeRobotDataset at `root`: every episode's observations the spec reads
-  (images resized to its size), actions, timestamps, success label and other columns
-  (`lerobot.read_dataset`). UserError for a dataset that cannot be read or does not fit."""
+  (images resized to its size), actions (in the policy's layout: `dataset.rotation`), timestamps,
+  success label and other columns (`lerobot.read_dataset`). UserError for a dataset that cannot be
+  read or does not fit."""
+  spec = spec_of(root, dataset)
   try:
-    info = lerobot.read_info(root)
-    spec = spec_from_info(info, dataset, root)
     size = spec.image_shape
     _, found = lerobot.read_dataset(root, list(spec.observations), tuple(size) if size else None, episodes, progress)
   except lerobot.DatasetError as e:
     raise UserError(str(e)) from None
   for ep in found:
+    ep["actions"] = spec.from_robot(ep["actions"])
     for key, v in spec.observations.items():
       got = tuple(np.asarray(ep["obs"][key]).shape[1:])
       if got != tuple(v["shape"]):

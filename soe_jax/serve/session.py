@@ -13,7 +13,8 @@ episode's first observation; openpi's `reset()` sends nothing, so the robot says
 (`modes.MODES`, default the server's). Other keys are ignored. The reply holds chunk-first arrays, as
 openpi's `ActionChunkBroker(policy, action_horizon=Ta)` slices:
 
-  actions     (Ta, A) float32   chunk[To-1 : To-1+Ta] in the robot's frame (absolute poses)
+  actions     (Ta, A) float32   chunk[To-1 : To-1+Ta] in the robot's frame (absolute poses) and its
+                                rotation convention (the spec's `robot_actions`, `data.rotations`)
   timestamps  (Ta,)   float64   when each action is due: the observation's timestamp + i / control_hz
   server_timing {"infer_ms": ...}  (added by the server)
   steering    (steer mode only; plain lists, which the broker passes through) {"dims", "proposals"
@@ -252,12 +253,15 @@ class Session:
       path = "base" if mode == "steer" else mode
       actions = np.asarray(jax.device_get(self.modes(path, self.agent, history, key))[0], np.float32)
     self.check(actions)
-    log.sent(actions, mode, ids)
+    sent = self.spec.to_robot(actions)  # the robot's rotation convention (the page keeps the policy's)
+    log.sent(sent, mode, ids)
     with self.lock:
       self.trail.extend(actions)
-    reply = {"actions": actions, "timestamps": float(stamp) + dt * np.arange(len(actions), dtype=np.float64)}
+    reply = {"actions": sent, "timestamps": float(stamp) + dt * np.arange(len(actions), dtype=np.float64)}
     if steering is not None:
       reply["steering"] = {k: v for k, v in steering.items() if k != "request"}
+      if self.spec.robot_rotations is not None:
+        reply["steering"]["proposals"] = self.spec.to_robot(steering["proposals"]).tolist()
     return reply
 
   def end(self, obs: dict) -> dict:
@@ -358,4 +362,5 @@ def metadata(spec: PolicySpec, agent: Agent, modes: Modes | None = None, default
     request_keys=list(spec.observations)
     + ["timestamp (optional)", "episode_start (optional)", "mode (optional)", "episode_end + label (ends an episode)"],
     reply_keys=["actions", "timestamps", "server_timing", "steering (steer mode)"],
+    reply_actions=spec.robot_actions,  # the layout of a reply's actions per arm (the robot's rotation part)
   )
