@@ -76,6 +76,11 @@ def _check(config: ml_collections.ConfigDict) -> None:
 def _prepared(config: ml_collections.ConfigDict, progress: bool):
   """(config with the encoder's cameras filled in, spec, policy, demonstrations), all checked."""
   _check(config)
+  cameras = dataset_lib.spec_of(config.dataset.path, config.dataset).image_keys
+  if cameras and config.policy.encoder.name != "image":
+    raise UserError(f"{config.dataset.path} has cameras ({', '.join(cameras)}) and the config's policy reads none: add "
+                    "the image preset (--config=configs/robot.py:cpu,image), or name the features it reads in "
+                    "dataset.observations")  # fmt: skip
   spec, demos = dataset_lib.read(config.dataset.path, config.dataset, progress=progress)
   config = ml_collections.ConfigDict(config.to_dict())
   if config.policy.encoder.name == "image" and not config.policy.encoder.kwargs.cameras:

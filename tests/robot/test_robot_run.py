@@ -55,3 +55,22 @@ def test_bad_robot_inputs_are_one_line_and_write_nothing(tmp_path):
     assert done.returncode == 2 and done.stderr.startswith("error: ") and message in done.stderr, done.stderr
     assert done.stderr.count("\n") == 1, done.stderr
   assert not (tmp_path / "run").exists()
+
+
+def test_a_camera_under_a_preset_that_reads_none_names_the_preset_to_use(tmp_path, capsys):
+  """A camera the preset's policy does not read: one line naming the preset that reads it."""
+  import numpy as np
+
+  from soe_jax import __main__ as entry
+  from soe_jax.data import lerobot
+  from tests.robot import synthetic
+
+  data = str(tmp_path / "demos")
+  lerobot.write_dataset(data, synthetic.episodes(np.random.default_rng(0), 1, 8, True), fps=10)
+  with pytest.raises(SystemExit) as e:
+    entry.main(["soe_jax", "fit", "--config=configs/robot.py:cpu", f"--config.dataset.path={data}",
+                f"--workdir={tmp_path / 'run'}"])  # fmt: skip
+  err = capsys.readouterr().err
+  assert e.value.code == 2 and err.count("\n") == 1, err
+  assert "has cameras (observation.images.wrist)" in err and "configs/robot.py:cpu,image" in err, err
+  assert not (tmp_path / "run").exists()
