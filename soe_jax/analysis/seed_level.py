@@ -17,9 +17,10 @@ gives one paired difference of an arm and its reference on their shared start st
   is the mean of its per-seed differences with variance 2 MSE / k and a t interval of (k - 1)(F - 1)
   degrees of freedom for F fits, the sum of k - 1 over the F - 1 comparisons with the shared reference.
   Pooling assumes every fit varies from seed to seed alike; `homogeneity` checks it with Cochran's Q
-  per comparison at the pooled tau^2. (Pooling the per-comparison differences as if they were
-  independent, the comparisons sharing the control, gave 7% false positives at the 5% level in the
-  calibration study; this gives 5%.)
+  per comparison at the pooled tau^2. (The differences against a shared control are not independent:
+  each holds the control's own fit, so pooling their spreads around their own means would count the
+  control's share once per arm; the two-way table counts it once. The calibration study,
+  `calibration.py`, measures the test's false positives.)
 
 Verdicts (`verdict`) rest on the moderated test; `seeds_needed` gives the training seeds that would
 detect a tested number at 80% power under the family's seed-to-seed variance.
