@@ -30,6 +30,7 @@ import ml_collections
 
 from soe_jax.data import episodes, hdf5
 from soe_jax.experiment import runlog, schema, task
+from soe_jax.policies.policy import policy_from_spec
 from soe_jax.runtime import atomic, configfile, faults
 from soe_jax.runtime.errors import UserError
 from soe_jax.train import checkpoint
@@ -226,7 +227,7 @@ class RunDir:
 
   def partial_fit(self, r: int):
     """(state, done, history) of round r's fit in progress (its newest complete save), or None."""
-    policy = checkpoint.policy_from_spec(self.config.policy, task.spec(self.config))
+    policy = policy_from_spec(self.config.policy, task.spec(self.config))
     return PartialFit(self.partial_fit_dir(r)).restore(checkpoint.abstract_state(self.config, policy))
 
   def clear_partial_fit(self, r: int) -> None:

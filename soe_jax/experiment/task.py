@@ -11,8 +11,7 @@ import ml_collections
 from soe_jax.data.spec import PolicySpec
 from soe_jax.envs import registry as env_registry
 from soe_jax.policies import registry as policy_registry
-from soe_jax.policies.policy import Policy
-from soe_jax.train import checkpoint
+from soe_jax.policies.policy import Policy, policy_from_spec
 
 
 @functools.lru_cache(maxsize=8)
@@ -42,7 +41,7 @@ def spec(config: ml_collections.ConfigDict) -> PolicySpec:
 @functools.lru_cache(maxsize=8)
 def _policy(config_json: str) -> Policy:
   config = ml_collections.ConfigDict(json.loads(config_json))
-  return checkpoint.policy_from_spec(config.policy, spec(config))
+  return policy_from_spec(config.policy, spec(config))
 
 
 def policy(config: ml_collections.ConfigDict) -> Policy:

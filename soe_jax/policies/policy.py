@@ -22,7 +22,8 @@ import jax
 import jax.numpy as jnp
 import ml_collections
 
-from soe_jax.policies import registry
+from soe_jax.data.spec import PolicySpec
+from soe_jax.policies import frames, registry
 from soe_jax.policies.heads.base import Head
 from soe_jax.policies.nets import vib
 
@@ -158,3 +159,16 @@ def make_policy(config: ml_collections.ConfigDict, obs_dim: int, action_dim: int
     image_keys=image_keys,
     example_obs=example,
   )
+
+
+def policy_from_spec(policy_config: ml_collections.ConfigDict, spec: PolicySpec) -> Policy:
+  """The policy `policy_config` (a config's `policy` section) describes, sized by `spec`."""
+  policy = make_policy(policy_config, spec.obs_dim, spec.action_dim, spec.image_shape or 84)
+  policy = dataclasses.replace(policy, lowdim_keys=spec.lowdim_keys)
+  if policy_config.get("action_frame", "absolute") == "chunk_relative":
+    policy = dataclasses.replace(policy, frame=frames.PoseLayout.from_spec(spec))
+  if set(policy.image_keys) != set(spec.image_keys):
+    raise ValueError(
+      f"the policy's encoder reads the images {list(policy.image_keys)}, the spec has {list(spec.image_keys)}"
+    )
+  return policy

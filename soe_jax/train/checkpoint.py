@@ -20,10 +20,9 @@ import orbax.checkpoint as ocp
 
 from soe_jax.data import spec as spec_lib
 from soe_jax.data.spec import PolicySpec
-from soe_jax.policies import frames
 from soe_jax.policies import normalizer as normalizer_lib
 from soe_jax.policies.agent import Agent
-from soe_jax.policies.policy import Policy, make_policy
+from soe_jax.policies.policy import Policy, policy_from_spec
 from soe_jax.runtime import atomic, faults
 from soe_jax.train import train_state
 
@@ -37,19 +36,6 @@ STATE_FORMAT = 2
 # The checkpoint's files. 3: `spec.json` beside the state; 2: the same state without it (its spec is
 # the task's, given by the caller).
 FORMAT = 3
-
-
-def policy_from_spec(policy_config: ml_collections.ConfigDict, spec: PolicySpec) -> Policy:
-  """The policy `policy_config` (a config's `policy` section) describes, sized by `spec`."""
-  policy = make_policy(policy_config, spec.obs_dim, spec.action_dim, spec.image_shape or 84)
-  policy = dataclasses.replace(policy, lowdim_keys=spec.lowdim_keys)
-  if policy_config.get("action_frame", "absolute") == "chunk_relative":
-    policy = dataclasses.replace(policy, frame=frames.PoseLayout.from_spec(spec))
-  if set(policy.image_keys) != set(spec.image_keys):
-    raise ValueError(
-      f"the policy's encoder reads the images {list(policy.image_keys)}, the spec has {list(spec.image_keys)}"
-    )
-  return policy
 
 
 def abstract_state(config: ml_collections.ConfigDict, policy: Policy) -> train_state.TrainState:

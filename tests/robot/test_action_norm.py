@@ -13,6 +13,7 @@ import pytest
 from soe_jax.data import lerobot
 from soe_jax.data.episodes import EpisodeSet
 from soe_jax.experiment import action_box
+from soe_jax.policies.policy import policy_from_spec
 from soe_jax.robot import config as robot_config
 from soe_jax.robot import dataset as dataset_lib
 from soe_jax.robot import run
@@ -68,7 +69,7 @@ def test_a_part_left_as_it_is_and_overflowing_is_named_in_the_warning(data, capl
   config = _config(data)
   config.dataset.normalize.axis_angle = "identity"
   spec, demos = dataset_lib.read(data, config.dataset)
-  policy = checkpoint.policy_from_spec(config.policy, spec)
+  policy = policy_from_spec(config.policy, spec)
   norm = normalization.fit_normalizer(policy, spec, demos, "demonstrations", 0.1)
   with caplog.at_level(logging.WARNING):
     clipped = action_box.check([EpisodeSet(demos, 0)], norm, spec, "demonstrations", str)

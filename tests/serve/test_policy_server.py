@@ -13,9 +13,9 @@ from soe_jax.data.spec import PolicySpec
 from soe_jax.policies import agent as agent_lib
 from soe_jax.policies import normalizer
 from soe_jax.policies.agent import Agent
+from soe_jax.policies.policy import policy_from_spec
 from soe_jax.serve import session, wire
 from soe_jax.serve.server import PolicyServer
-from soe_jax.train import checkpoint
 from tests.experiment import toy
 
 TOKEN = "secret-token"
@@ -29,7 +29,7 @@ SPEC = dict(
 
 
 def _agent(spec: PolicySpec, box=None) -> Agent:
-  policy = checkpoint.policy_from_spec(toy.get_config("smoke").policy, spec)
+  policy = policy_from_spec(toy.get_config("smoke").policy, spec)
   rng = np.random.default_rng(0)
   obs, actions = rng.normal(size=(50, 7)), rng.uniform(-0.3, 0.3, size=(50, 10))
   norm = normalizer.fit(obs, actions, action_box=box if box is not None else spec.action_bounds())
