@@ -13,6 +13,7 @@ command that wrote it sets it (`record.write_record`), and `TABLES` maps a kind 
 - `fidelity`: `python -m soe_jax fidelity`, the exploration path against the base path (`fidelity.table`);
 - `action_range`: `python -m soe_jax action_range`, round 0 on the workspace box against the
   demonstrations' range per distance outside the latter (`action_range.table`);
+- `fit_step`: `python -m soe_jax bench fit --out=...`, the whole policy's fit step, a row per setting;
 - `calibration`: `python -m soe_jax calibrate`, each test's false-positive rate and power on simulated
   campaigns (`calibration.table`).
 """
@@ -80,9 +81,9 @@ def encoder_table(records: Records) -> str:
   for _, r in records:
     e = r["encoder"]
     rows.append([
-      "/".join(map(str, e["widths"])),
+      "/".join(map(str, e["widths"])) + (" (one shared)" if e.get("shared") else ""),
       f"{e['params'] / 1e6:.2f}M",
-      f"{e['batch_size']} x {e['n_obs_steps']} x {e['cameras']} ({e['crop']}x{e['crop']})",
+      f"{e['batch_size']} x {e['n_obs_steps']} x {e['cameras']} ({e['crop']}x{e['crop']} of {e.get('image_size', 84)})",
       f"{e['gflop_per_step']:.1f} / {e['gb_per_step']:.2f}",
       f"{e['step_s']:.2f} s",
       f"{e['flop_floor_s']:.2f} s ({e['matmul_gflops']:.0f} GFLOP/s)",
@@ -92,6 +93,18 @@ def encoder_table(records: Records) -> str:
   header = ["trunk widths", "parameters", "batch x frames x cameras", "GFLOP / GB per step", "step", "FLOP floor",
             "byte floor", "fraction of the higher floor"]  # fmt: skip
   return markdown(header, rows)
+
+
+def fit_step_table(records: Records) -> str:
+  """`bench fit --out` records: the setting (fields differing from the first record's config), the
+  parameters, the batch and the fit step."""
+  first = records[0][1]["config"]
+  rows = []
+  for name, r in records:
+    f = r["fit_step"]
+    rows.append([name, _setting(r["config"], first), r["commit"], f"{f['params'] / 1e6:.2f}M", f["batch_size"],
+                 f"{f['ms_per_step']:.0f} ms", f"{f['samples_per_s']:.0f}"])  # fmt: skip
+  return markdown(["record", "setting", "commit", "parameters", "batch", "fit step", "samples/s"], rows)
 
 
 def mjx_table(records: Records) -> str:
@@ -301,6 +314,7 @@ def demo_styles_table(records: Records) -> str:
 TABLES.register("demo_styles", demo_styles_table)
 TABLES.register("fidelity", lambda records: fidelity.table([run for _, r in records for run in r["runs"]]))
 TABLES.register("action_range", lambda records: action_range.table([s for _, r in records for s in r["seeds"]]))
+TABLES.register("fit_step", fit_step_table)
 TABLES.register("calibration", lambda records: calibration.table([r for _, r in records]))
 
 

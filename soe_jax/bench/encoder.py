@@ -1,7 +1,8 @@
 """The image encoder's share of an image policy's fit step, on random images in memory.
 
-One step: random 76x76 crops of both cameras' 84x84 images over `n_obs_steps` frames, the ResNet-18
-trunks (or narrower `widths`), spatial softmax and projection, a squared-feature loss standing in for
+One step: random 76x76 crops of both cameras' 84x84 images (or `crop_size` of `image_size`) over
+`n_obs_steps` frames, the ResNet-18 trunks (or narrower `widths`; `shared`: one trunk for both
+cameras), spatial softmax and projection, a squared-feature loss standing in for
 the head's, backward, AdamW; whole compiled chunks of `steps` steps are timed and the mean per step
 reported. FLOPs and bytes accessed per step come from XLA's cost analysis; the floors are those
 FLOPs at this machine's float32 matrix-product rate and those bytes at its memory bandwidth, both
@@ -54,8 +55,9 @@ def run(
   crop_size: int = 76,
   steps: int = 3,
   repeats: int = 2,
+  shared: bool = False,
 ) -> dict:
-  enc = resnet.ImageEncoder(cameras=CAMERAS, crop_size=crop_size, widths=tuple(widths))
+  enc = resnet.ImageEncoder(cameras=CAMERAS, crop_size=crop_size, widths=tuple(widths), shared=shared)
   rng = np.random.default_rng(0)
   shape = (batch, n_obs_steps, image_size, image_size, 3)
   obs = {
@@ -101,7 +103,9 @@ def run(
     batch_size=batch,
     n_obs_steps=n_obs_steps,
     cameras=len(CAMERAS),
+    image_size=image_size,
     crop=crop_size,
+    shared=shared,
     params=count,
     step_s=round(per_step, 4),
     gflop_per_step=round(flops / 1e9, 2),

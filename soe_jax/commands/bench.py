@@ -6,7 +6,9 @@
       [--num_envs=1 --unbatched] [--obs_mode=image --renderer=auto|gl|warp] [--out=results/render/<name>.json]
   python -m soe_jax bench mjx --task=lift --mjx_impl=warp --num_envs=200 [--out=results/mjx/lift-warp.json]
   python -m soe_jax bench fit --config=configs/square.py [--bypass=on|off] [--ema=on|off]
-  python -m soe_jax bench encoder [--batch=64 --widths=64,128,256,512] [--out=results/encoder/<name>.json]
+      [--out=results/<study>/<name>.json]
+  python -m soe_jax bench encoder [--batch=64 --widths=64,128,256,512 --frames=2 --image_size=84 --crop=76 --shared]
+      [--out=results/encoder/<name>.json]
   python -m soe_jax bench sample --config=configs/square.py --batch=1 --steps=10
   python -m soe_jax bench rollout --config=configs/lift.py:cpu --strategy=soe --num_envs=100
   python -m soe_jax bench torch --down_dims=256,512,1024 --step_embed_dim=256 --batch=256
@@ -28,6 +30,7 @@ from soe_jax.bench import encoder, env, mjx, policy, rollout, torch_reference
 from soe_jax.bench import serve as serve_bench
 from soe_jax.envs import backends, observations
 from soe_jax.envs import registry as env_registry
+from soe_jax.experiment import rundir
 from soe_jax.experts import registry as expert_registry
 from soe_jax.render import choice as render_choice
 from soe_jax.runtime import cli, provenance
@@ -101,16 +104,25 @@ def _fit_flags(f: cli.Flags) -> None:
   f.enum("ema", "off", ["on", "off"], "Keep the EMA of parameters.")
   f.integer("steps", 10, "SGD steps per timed chunk.", lower_bound=1)
   f.integer("repeats", 2, "Timed chunks.", lower_bound=1)
+  f.string("out", None, "Also write the result record (for results/) here, with the config.")
 
 
 def _fit(f: cli.Flags, argv: list[str]) -> dict:
-  return policy.fit(f.config, f.bypass == "on", f.ema == "on", f.steps, f.repeats)
+  source = provenance.header(argv)
+  result = policy.fit(f.config, f.bypass == "on", f.ema == "on", f.steps, f.repeats)
+  if f.out:
+    record.write_record(dict(source, config=rundir.plain(f.config), fit_step=result), f.out, "fit_step")
+  return result
 
 
 # -- encoder -----------------------------------------------------------------------------------------
 def _encoder_flags(f: cli.Flags) -> None:
   f.integer("batch", 64, "Batch size.", lower_bound=1)
   f.list("widths", ["64", "128", "256", "512"], "The ResNet-18 trunk's stem and stage channels.")
+  f.integer("frames", 2, "Observation frames per sample.", lower_bound=1)
+  f.integer("image_size", 84, "The cameras' image height and width.", lower_bound=8)
+  f.integer("crop", 76, "The random crop's height and width.", lower_bound=4)
+  f.boolean("shared", False, "One trunk for both cameras instead of one each.")
   f.integer("steps", 3, "SGD steps per timed chunk.", lower_bound=1)
   f.integer("repeats", 2, "Timed chunks.", lower_bound=1)
   f.string("out", None, "Also write the result record (for results/) here.")
@@ -119,7 +131,9 @@ def _encoder_flags(f: cli.Flags) -> None:
 def _encoder(f: cli.Flags, argv: list[str]) -> dict:
   widths = _ints(f.widths, "widths")
   source = provenance.header(argv)
-  result = encoder.run(f.batch, widths=widths, steps=f.steps, repeats=f.repeats)
+  if f.crop > f.image_size:
+    raise cli.UsageError(f"--crop={f.crop} is larger than --image_size={f.image_size}")
+  result = encoder.run(f.batch, f.frames, widths, f.image_size, f.crop, f.steps, f.repeats, f.shared)
   if f.out:
     record.write_record(dict(source, encoder=result), f.out, "encoder")
   return result
@@ -207,7 +221,7 @@ both backends, the contacts and constraints the scene uses, compile and run time
     """The policy's fit step on random data in memory: whole compiled chunks of SGD steps timed, the mean
 per step reported.
 
-  python -m soe_jax bench fit --config=configs/square.py [--bypass=on|off] [--ema=on|off] [--steps=10]""",
+  python -m soe_jax bench fit --config=configs/square.py [--bypass=on|off] [--ema=on|off] [--steps=10] [--out=FILE]""",
     _fit_flags,
     _fit,
     config=True,
@@ -217,7 +231,8 @@ per step reported.
     """The image encoder's share of an image policy's fit step (both cameras' ResNet-18s), on random
 images in memory, with its FLOPs and bytes against this machine's floors.
 
-  python -m soe_jax bench encoder [--batch=64 --widths=64,128,256,512] [--out=results/encoder/<name>.json]""",
+  python -m soe_jax bench encoder [--batch=64 --widths=64,128,256,512 --frames=2 --image_size=84 --crop=76 --shared]
+      [--out=results/encoder/<name>.json]""",
     _encoder_flags,
     _encoder,
   ),

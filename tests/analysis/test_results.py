@@ -179,6 +179,24 @@ def test_the_docs_tables_are_what_their_committed_results_give(monkeypatch):
     assert results.regenerate(text) == text, f"{path} is stale: run python -m soe_jax results --docs"
 
 
+def test_fit_step_records_get_a_row_per_setting(tmp_path):
+  """`bench fit --out` records: a row each, naming the fields in which its config differs from the first's."""
+  from configs import lift
+
+  for name, size in (("01_a", 84), ("02_b", 64)):
+    config = lift.get_config("cpu,image").to_dict()
+    config["env"]["image_size"] = size
+    step = dict(params=3_204_403, batch_size=64, ms_per_step=196.0 if size == 84 else 120.0, samples_per_s=320.0)
+    (tmp_path / f"{name}.json").write_text(
+      json.dumps(dict(kind="fit_step", commit="abc", config=config, fit_step=step))
+    )
+  rows = results.table(str(tmp_path)).splitlines()[2:]
+  assert rows == [
+    "| 01_a | - | abc | 3.20M | 64 | 196 ms | 320 |",
+    "| 02_b | env.image_size=64 | abc | 3.20M | 64 | 120 ms | 320 |",
+  ]
+
+
 def test_the_docs_figures_plot_what_their_committed_results_give(monkeypatch):
   """Each figure of the claims that the documents name is drawn from its plotted data, committed beside
   it; recomputed from the records, that data is unchanged (the pixels are not compared)."""
