@@ -2,7 +2,7 @@
 
 - `CondFn`: the conditioning hook a head's sampler applies before every network call (SIME's noise).
 - `Strategy`: how a batch of environments chooses its next executed actions; the rollout engine calls
-  it and never knows which one runs. A strategy is a frozen dataclass whose init fields with defaults
+  it and never knows which one runs (the inputs it may read in `env_state.info`: `Strategy.__call__`). A strategy is a frozen dataclass whose init fields with defaults
   are its settings (`explore.strategy.kwargs` in configs; the defaults are stated there and nowhere
   else); `create(env, **settings)` builds it for a task, and `prepare` fits it to a round's data
   before exploring (steering picks its latent dimensions there).
@@ -42,7 +42,17 @@ class Strategy(Protocol):
     self, agent: Agent, obs_history: jax.Array, env_state: State, key: jax.Array
   ) -> tuple[jax.Array, dict[str, jax.Array]]:
     """Raw observation history (B, To, D) and the batched brax state -> (raw executed actions (B, Ta, A),
-    diagnostics {name: (B, ...)})."""
+    diagnostics {name: (B, ...)}).
+
+    What a strategy may read in `env_state.info` beside the task's own entries (`rng`: the episode's
+    reset key, which the demonstrator follows), set by the rollout engine before every decision
+    (`explore/rollout.py`):
+      steps      (B,) int: the control step the decision starts at, the same for the whole batch (it
+                 decides together; `steps // n_action_steps` is the decision's index)
+      slice_key  (B,) typed keys ((B, 2) for raw ones): the key of the batch's slice, the same over the
+                 slice's decisions (noise held over several decisions derives from it: `soe`'s `hold`)
+    A caller outside the rollout engine (the robot's server) passes no state (`env_state` None): only a
+    strategy that reads none of these serves there."""
     ...
 
   @classmethod
