@@ -1,4 +1,6 @@
-"""Shared fixtures: the persistent compilation cache, and environments compiled once per session."""
+"""Shared fixtures: the persistent compilation cache, environments compiled once per session, and the
+toy task (`experiment/toy.py`): registered for a test (`toy_task`), and a finished toy run shared by the
+session (`toy_run`)."""
 
 import functools
 
@@ -64,6 +66,29 @@ def _jitted(name: str, backend: str = "mujoco"):
 def jitted_env():
   """`jitted_env(name, backend="mujoco") -> (env, jit(reset), jit(step))`, shared across tests."""
   return _jitted
+
+
+@pytest.fixture
+def toy_task():
+  """The toy task and its demonstrator registered as "toy" for the test."""
+  from tests.experiment import toy
+
+  with toy.registered():
+    yield
+
+
+@pytest.fixture(scope="session")
+def toy_run(tmp_path_factory):
+  """A finished two-round `toy:smoke,soe` run: (runs root, config, workdir)."""
+  from soe_jax.experiment import loop
+  from tests.experiment import toy
+
+  root = tmp_path_factory.mktemp("toy_runs")
+  config = toy.get_config("smoke,soe")
+  workdir = str(root / "toy-soe")
+  with toy.registered():
+    loop.run(config, workdir, progress=False)
+  return root, config, workdir
 
 
 @pytest.fixture(scope="session")
