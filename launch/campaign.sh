@@ -4,8 +4,10 @@
 # results/campaign-<PRESET>/<task>/seed<k>/<method>/ and rewriting results/campaign-<PRESET>/comparison.md).
 #   bash launch/campaign.sh [TASKS] [SEEDS] [PRESET] [METHODS]
 #   bash launch/campaign.sh lift "0 1 2" cpu dp,sime,soe,soe_steer,control,dp+expert_data,soe+expert_data
+# Work directories under $RUNS/campaign-<PRESET> (`launch/runs.sh`: RUNS, else the main checkout's runs/).
 # Re-running resumes unfinished runs. On a cluster, run each campaign line as its own job.
 set -euo pipefail
+source "$(dirname "$0")/runs.sh"
 tasks=${1:-lift}
 seeds=${2:-0 1 2}
 preset=${3:-cpu}
@@ -13,6 +15,6 @@ methods=${4:-dp,sime,soe,soe_steer,control,dp+expert_data,soe+expert_data}
 for task in $tasks; do
   for seed in $seeds; do
     python -m soe_jax campaign --config="configs/$task.py${preset:+:$preset}" --config.seed="$seed" --methods="$methods" \
-      --workdir="runs/campaign-${preset:-default}" --results="results/campaign-${preset:-default}" --progress=false
+      --workdir="$(runs_root)/campaign-${preset:-default}" --results="results/campaign-${preset:-default}" --progress=false
   done
 done

@@ -48,16 +48,18 @@
 # protocol they picked (SIME's on varied demonstrations): under a config whose control arm has either,
 # their arms would be others than the committed results', so the script refuses and names the commit
 # each part's seeds ran at (c0b0bca; picked-count: 8d0b68b).
-# Work directories outside the work tree (WORKDIR, default /work/runs-protocol, one per part);
-# re-running resumes. CONFIG (default configs/lift.py:cpu; the main and rounds parts take
-# configs/TASK.py:PRESET, PRESET default cpu) and RESULTS (default results) may be set in the
-# environment, e.g. CONFIG=configs/lift.py:smoke PRESET=smoke RESULTS=/tmp/protocol for a quick check.
+# Work directories under WORKDIR (one per part), default $RUNS/protocol (`launch/runs.sh`: RUNS, else
+# the main checkout's runs/, never inside a pinned worktree); re-running resumes. CONFIG (default
+# configs/lift.py:cpu; the main and rounds parts take configs/TASK.py:PRESET, PRESET default cpu) and
+# RESULTS (default results) may be set in the environment, e.g. CONFIG=configs/lift.py:smoke
+# PRESET=smoke RESULTS=/tmp/protocol for a quick check.
 set -euo pipefail
 source "$(dirname "$0")/measured_as.sh"
+source "$(dirname "$0")/runs.sh"
 parts="sime-count-N, varied-count-N, picked-count-TASK-N, sime-N, style-N, main-TASK[-1|-2|-3], rounds-lift[-1|-2] or decompose-lift[-1|-2|-n3|-n3-picked]"
 part=${1:?$parts}
 seed=${2:?the training seed}
-runs=${3:-/work/runs-protocol}
+runs=${3:-$(runs_root)/protocol}
 config=${CONFIG:-configs/lift.py:cpu}
 out=${RESULTS:-results}
 # The first protocol on scripted demonstrations: what the control arm had when the parts before main-TASK ran.

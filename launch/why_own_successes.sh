@@ -23,13 +23,15 @@
 # KL weight 1e-5 and aligned windows; f21cbfe is the last commit before): with a config whose soe arm
 # has either, its `soe` would be another arm than the committed results' `soe`, so the script refuses
 # and names that commit.
-# Work directories outside the work tree (WORKDIR, default /work/runs-why; part b uses WORKDIR-beta);
-# re-running resumes. CONFIG (default configs/lift.py:cpu) and RESULTS (default results) may be set in the
-# environment, e.g. CONFIG=configs/lift.py:smoke RESULTS=/tmp/why for a quick check of the whole path.
+# Work directories under WORKDIR, default $RUNS/why (`launch/runs.sh`: RUNS, else the main checkout's
+# runs/, never inside a pinned worktree; part b uses WORKDIR-beta); re-running resumes. CONFIG (default
+# configs/lift.py:cpu) and RESULTS (default results) may be set in the environment, e.g.
+# CONFIG=configs/lift.py:smoke RESULTS=/tmp/why for a quick check of the whole path.
 set -euo pipefail
 source "$(dirname "$0")/measured_as.sh"
+source "$(dirname "$0")/runs.sh"
 seed=${1:?the training seed}
-runs=${2:-/work/runs-why}
+runs=${2:-$(runs_root)/why}
 part=${3:-all}
 case $part in a|b|c|d|all|square) ;; *) echo "unknown part '$part'; known: a, b, c, d, square, all" >&2; exit 2;; esac
 [[ ($part != d && $part != square) || -n ${BETA:-} ]] || {
