@@ -15,6 +15,9 @@ import itertools
 import sys
 
 _barriers = itertools.count()
+# The jax minor version whose private coordination-service client (`_wait_at_barrier`) was checked;
+# pyproject.toml pins jax to it. Another version: check that the call still exists, then change this.
+JAX_CHECKED = (0, 10)
 
 
 def _jax():
@@ -38,6 +41,20 @@ def barrier(name: str, timeout_s: float = 24 * 3600) -> None:
   passes the same barriers in the same order; `timeout_s` long, for a wait on another run's lock."""
   if count() == 1:
     return
-  from jax._src import distributed  # the coordination service's barrier: no collective, no 30 s timeout
+  _wait_at_barrier(f"soe_jax {next(_barriers)} {name}", int(timeout_s * 1000))
 
-  distributed.global_state.client.wait_at_barrier(f"soe_jax {next(_barriers)} {name}", int(timeout_s * 1000))
+
+def _wait_at_barrier(name: str, timeout_ms: int) -> None:
+  """The coordination service's barrier (no collective, no 30 s timeout), which jax reaches only
+  through its private modules: refused, naming the version, under a jax other than `JAX_CHECKED`."""
+  jax = _jax()
+  version = tuple(int(part) for part in jax.__version__.split(".")[:2])
+  if version != JAX_CHECKED:
+    raise RuntimeError(
+      f"runtime/hosts.py waits at barriers through jax's private jax._src.distributed, checked with jax "
+      f"{'.'.join(map(str, JAX_CHECKED))}; this is jax {jax.__version__}: check that "
+      "global_state.client.wait_at_barrier is still there, then update hosts.JAX_CHECKED"
+    )
+  from jax._src import distributed  # (private: imported only here, after the check)
+
+  distributed.global_state.client.wait_at_barrier(name, timeout_ms)

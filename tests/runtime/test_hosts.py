@@ -87,3 +87,14 @@ def test_two_processes_write_one_set_of_files_with_the_one_process_numbers(tmp_p
     for k in ("final_loss", "success_rate", "jerk", "pass_at_k"):
       if x.get(k) is not None:
         np.testing.assert_allclose(y[k], x[k], rtol=1e-4, err_msg=f"{k} of round {x['round']} {x['phase']}")
+
+
+def test_the_private_barrier_call_is_refused_under_a_jax_it_was_not_checked_with(monkeypatch):
+  import jax
+
+  from soe_jax.runtime import hosts
+
+  assert tuple(int(p) for p in jax.__version__.split(".")[:2]) == hosts.JAX_CHECKED  # the pinned jax
+  monkeypatch.setattr(jax, "__version__", "0.11.0")
+  with pytest.raises(RuntimeError, match="checked with jax 0.10; this is jax 0.11.0"):
+    hosts._wait_at_barrier("x", 1000)
