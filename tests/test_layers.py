@@ -6,7 +6,7 @@ import pathlib
 ROOT = pathlib.Path(__file__).resolve().parent.parent / "soe_jax"
 # Lowest first; a module may import its own layer and those below.
 LAYERS = [
-  ("runtime", "registry", "types", "metrics"),
+  ("runtime", "registry", "types", "metrics", "geometry"),
   ("render",),
   ("envs",),
   ("data",),

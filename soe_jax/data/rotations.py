@@ -12,7 +12,7 @@ what `chunk_relative` needs) and the server replies in the robot's own conventio
               axes ("ZYX"); three different axes (Tait-Bryan) or the first again last (proper, "zxz")
 
 `degrees`: the angles (Euler's, or axis-angle's length) in degrees, else radians. Back from
-rotation-6d (Gram-Schmidt on its two rows, `data.poses`) each convention gives scipy's canonical
+rotation-6d (Gram-Schmidt on its two rows, `soe_jax.geometry`) each convention gives scipy's canonical
 values: the rotation vector of the angle in [0, pi], the quaternion with w >= 0, the Euler angles with
 the first and last in [-pi, pi] and the middle in [-pi/2, pi/2] (Tait-Bryan) or [0, pi] (proper), the
 last 0 at gimbal lock.
@@ -24,7 +24,7 @@ import itertools
 
 import numpy as np
 
-from soe_jax.data import poses
+from soe_jax import geometry
 
 PARTS = {"axis_angle": 3, "quaternion": 4, "euler": 3}  # a robot's rotation parts -> their sizes
 QUAT_ORDERS = ("xyzw", "wxyz")
@@ -97,11 +97,11 @@ def _rotvec_to_matrix(v: np.ndarray) -> np.ndarray:
   t = np.linalg.norm(v, axis=-1, keepdims=True)
   small = t < _SMALL
   k = np.where(small, 0.5 - t**2 / 48, np.sin(t / 2) / np.where(small, 1.0, t))  # sin(t / 2) / t
-  return poses.quat_to_mat(np.concatenate([v * k, np.cos(t / 2)], -1), "xyzw", xp=np)
+  return geometry.quat_to_mat(np.concatenate([v * k, np.cos(t / 2)], -1), "xyzw", xp=np)
 
 
 def _rotvec_from_matrix(m: np.ndarray) -> np.ndarray:
-  q = poses.mat_to_quat(m, "xyzw", xp=np)  # w >= 0: the angle in [0, pi]
+  q = geometry.mat_to_quat(m, "xyzw", xp=np)  # w >= 0: the angle in [0, pi]
   n = np.linalg.norm(q[..., :3], axis=-1, keepdims=True)  # sin(t / 2)
   t = 2 * np.arctan2(n, q[..., 3:])
   small = t < _SMALL
@@ -113,7 +113,7 @@ def to_matrix(x, conv: dict) -> np.ndarray:
   x = np.asarray(x, np.float64)
   part, name = conv["part"], conv["convention"]
   if part == "quaternion":
-    return poses.quat_to_mat(x, name, xp=np)
+    return geometry.quat_to_mat(x, name, xp=np)
   x = np.deg2rad(x) if conv.get("degrees") else x
   return _rotvec_to_matrix(x) if part == "axis_angle" else _euler_to_matrix(x, name)
 
@@ -123,19 +123,19 @@ def from_matrix(m, conv: dict) -> np.ndarray:
   m = np.asarray(m, np.float64)
   part, name = conv["part"], conv["convention"]
   if part == "quaternion":
-    return poses.mat_to_quat(m, name, xp=np)
+    return geometry.mat_to_quat(m, name, xp=np)
   x = _rotvec_from_matrix(m) if part == "axis_angle" else _euler_from_matrix(m, name)
   return np.rad2deg(x) if conv.get("degrees") else x
 
 
 def to_6d(x, conv: dict) -> np.ndarray:
   """(..., size) in the convention `conv` -> (..., 6): the rotation matrix's first two rows."""
-  return poses.mat_to_rot6d(to_matrix(x, conv), xp=np)
+  return geometry.mat_to_rot6d(to_matrix(x, conv), xp=np)
 
 
 def from_6d(d6, conv: dict) -> np.ndarray:
   """(..., 6) rotation-6d -> (..., size) in the convention `conv`."""
-  return from_matrix(poses.rot6d_to_mat(np.asarray(d6, np.float64), xp=np), conv)
+  return from_matrix(geometry.rot6d_to_mat(np.asarray(d6, np.float64), xp=np), conv)
 
 
 def arm_conventions(arms: list, quaternion: str = "xyzw", euler: str = "xyz", degrees: bool = False) -> list:

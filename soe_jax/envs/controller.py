@@ -16,6 +16,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from soe_jax import geometry
 from soe_jax.envs import panda, rotations
 
 # One arm's action, in order: an absolute pose (position, rotation-6d) or robomimic's increments
@@ -50,7 +51,7 @@ def _clip_norm(v: jax.Array, max_norm: float) -> jax.Array:
 def pose_target(mode: str, action: jax.Array, site_pos: jax.Array, site_rot: jax.Array):
   """-> (target position (3,), target rotation (3, 3), gripper command in [-1, 1])."""
   if mode == "absolute":
-    return action[:3], rotations.rot6d_to_mat(action[3:9]), jnp.clip(action[9], -1.0, 1.0)
+    return action[:3], geometry.rot6d_to_mat(action[3:9]), jnp.clip(action[9], -1.0, 1.0)
   a = jnp.clip(action, -1.0, 1.0)
   return site_pos + 0.05 * a[:3], rotations.axis_angle_to_mat(0.5 * a[3:6]) @ site_rot, a[6]
 

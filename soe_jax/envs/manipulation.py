@@ -51,6 +51,7 @@ import mujoco
 import numpy as np
 from brax.envs.base import Env, State
 
+from soe_jax import geometry
 from soe_jax.envs import backends, controller, panda, physics, rotations
 from soe_jax.envs.observations import (
   MIN_SPAN,
@@ -124,7 +125,7 @@ class ManipulationEnv(Env):
     self.kin = self.kins[0]
     # wxyz, the hemispheres of each `robot<k>_eef_quat` (module docstring).
     self.hand_references = tuple(
-      np.asarray(rotations.mat_to_quat_wxyz(kin.forward(jnp.asarray(panda.INIT_QPOS))["hand_rot"])) for kin in self.kins
+      np.asarray(geometry.mat_to_quat_wxyz(kin.forward(jnp.asarray(panda.INIT_QPOS))["hand_rot"])) for kin in self.kins
     )
     self.hand_reference = self.hand_references[0]
     self.physics = physics.make_backend(
@@ -224,7 +225,7 @@ class ManipulationEnv(Env):
     convention (module docstring); observations made here come back unchanged."""
     out = {k: np.array(v) for k, v in obs.items()}
     for k, reference in enumerate(self.hand_references):
-      conformed = rotations.same_hemisphere(_wxyz(out[f"robot{k}_eef_quat"]), reference)
+      conformed = geometry.same_hemisphere(_wxyz(out[f"robot{k}_eef_quat"]), reference)
       out[f"robot{k}_eef_quat"] = np.asarray(rotations.wxyz_to_xyzw(conformed))
     hand = _wxyz(out["robot0_eef_quat"])  # the eef frame of `rel_quat` parts
     start, world = 0, None
@@ -233,13 +234,13 @@ class ManipulationEnv(Env):
       if kind == "quat":  # continuous along the episode from w >= 0 at its start
         q = np.asarray(_wxyz(out["object"][:, part]))
         for t in range(len(q)):
-          q[t] = rotations.same_hemisphere(q[t], q[t - 1] if t else np.array([1.0, 0, 0, 0]))
+          q[t] = geometry.same_hemisphere(q[t], q[t - 1] if t else np.array([1.0, 0, 0, 0]))
         world = q
         out["object"][:, part] = np.asarray(rotations.wxyz_to_xyzw(q))
       elif kind == "rel_quat":  # conj(hand) * object
         expected = rotations.quat_mul_wxyz(rotations.quat_conj_wxyz(hand), world)
         out["object"][:, part] = np.asarray(
-          rotations.wxyz_to_xyzw(rotations.same_hemisphere(_wxyz(out["object"][:, part]), expected))
+          rotations.wxyz_to_xyzw(geometry.same_hemisphere(_wxyz(out["object"][:, part]), expected))
         )
       start += size
     return out
@@ -300,7 +301,7 @@ class ManipulationEnv(Env):
     for k, (kin, reference) in enumerate(zip(self.kins, self.hand_references)):
       q = qpos[9 * k : 9 * k + 9]
       fk = kin.forward(q[:7])
-      hand_quat = rotations.mat_to_quat_wxyz(fk["hand_rot"], reference)
+      hand_quat = geometry.mat_to_quat_wxyz(fk["hand_rot"], reference)
       obs[f"robot{k}_eef_pos"] = fk["site_pos"]
       obs[f"robot{k}_eef_quat"] = rotations.wxyz_to_xyzw(hand_quat)
       obs[f"robot{k}_gripper_qpos"] = q[7:9]
@@ -348,7 +349,7 @@ def pose_in_eef(obj_pos, obj_quat_wxyz, eef_pos, hand_rot, hand_quat_wxyz):
 def yaw_free_qpos(pos, yaw) -> jax.Array:
   """Free-joint qpos (7,) for a body at `pos`, rotated by `yaw` about world z, its quaternion with
   w >= 0 (the object-orientation convention at reset; the same physical state for either sign)."""
-  q = rotations.same_hemisphere(rotations.yaw_quat_wxyz(yaw), jnp.array([1.0, 0.0, 0.0, 0.0]))
+  q = geometry.same_hemisphere(rotations.yaw_quat_wxyz(yaw), jnp.array([1.0, 0.0, 0.0, 0.0]))
   return jnp.concatenate([jnp.asarray(pos, jnp.float32), q])
 
 

@@ -18,7 +18,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from soe_jax.envs import rotations
+from soe_jax import geometry
 
 # Sizes of one robot's policy-observation keys, `robot<k>_` + each; `object` is the task's own
 # (`ManipulationEnv.object_dim`).
@@ -87,7 +87,7 @@ def pose_action(obs: dict, offset=0.0, grip=-1.0) -> jax.Array:
   return jnp.concatenate(
     [
       jnp.concatenate(
-        [obs[f"robot{k}_eef_pos"] + offset, rotations.mat_to_rot6d(obs[f"robot{k}_eef_rot"].reshape(3, 3)), grip]
+        [obs[f"robot{k}_eef_pos"] + offset, geometry.mat_to_rot6d(obs[f"robot{k}_eef_rot"].reshape(3, 3)), grip]
       )
       for k in range(num_robots_in(obs))
     ]

@@ -14,6 +14,7 @@ import math
 import jax.numpy as jnp
 import numpy as np
 
+from soe_jax import geometry
 from soe_jax.envs import rotations
 
 _S = math.sqrt(0.5)
@@ -207,7 +208,7 @@ def robot_actuators_mjcf(index: int = 0) -> str:
 
 
 def _transform(pos, quat):
-  return jnp.asarray(pos), rotations.quat_wxyz_to_mat(jnp.asarray(quat))
+  return jnp.asarray(pos), geometry.quat_wxyz_to_mat(jnp.asarray(quat))
 
 
 class Kinematics:
@@ -218,7 +219,7 @@ class Kinematics:
     self.base_rot = rotations.rotz(jnp.float32(base_yaw))
     self._link = [_transform(LINK_POS[i], LINK_QUAT[i]) for i in range(7)]
     hand_p, hand_r = _transform(HAND_POS, HAND_QUAT)
-    grip_r = rotations.quat_wxyz_to_mat(jnp.asarray(GRIPPER_QUAT))
+    grip_r = geometry.quat_wxyz_to_mat(jnp.asarray(GRIPPER_QUAT))
     self._hand = (hand_p, hand_r)
     self._grip_r = grip_r
 

@@ -37,6 +37,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from soe_jax import geometry
 from soe_jax.envs import manipulation, panda, rotations
 
 TABLE_TOP = 0.8
@@ -116,7 +117,7 @@ def _quat_x(angle) -> jax.Array:
 
 def lowest_point(pos: jax.Array, quat: jax.Array, boxes) -> jax.Array:
   """The lowest z of a free body's boxes at pose (pos, wxyz quat)."""
-  rot = rotations.quat_wxyz_to_mat(quat)
+  rot = geometry.quat_wxyz_to_mat(quat)
   reach = jnp.abs(rot[2])  # how far each body axis reaches along world z per unit length
   return jnp.min(jnp.stack([pos[2] + rot[2] @ jnp.asarray(c) - reach @ jnp.asarray(h) for c, h in boxes]))
 
@@ -213,7 +214,7 @@ class Transport(manipulation.ManipulationEnv):
     payload_pos, payload_quat = manipulation.free_body_pose(qpos, PAYLOAD_QPOS)
     trash_pos, trash_quat = manipulation.free_body_pose(qpos, TRASH_QPOS)
     lid_pos, lid_quat = manipulation.free_body_pose(qpos, LID_QPOS)
-    handle_pos = lid_pos + rotations.quat_wxyz_to_mat(lid_quat)[:, 2] * LID_HANDLE_OFFSET
+    handle_pos = lid_pos + geometry.quat_wxyz_to_mat(lid_quat)[:, 2] * LID_HANDLE_OFFSET
     eef0, eef1 = arms[0].eef_pos, arms[1].eef_pos
     in_target, in_trash = self._placed(qpos)
     return jnp.concatenate(

@@ -34,7 +34,7 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-from soe_jax.envs import rotations
+from soe_jax import geometry
 
 TIMEOUT = 30  # steps a phase may wait beyond its schedule for the arm to arrive
 
@@ -148,7 +148,7 @@ class ScriptedExpert:
 
     key, key_noise = jax.random.split(es.key)
     noise = self.noise_decay * es.noise + self.noise_std * jax.random.normal(key_noise, (3,))
-    action = jnp.concatenate([cmd_pos + noise, rotations.mat_to_rot6d(topdown_rot(cmd_yaw)), target.grip[None]])
+    action = jnp.concatenate([cmd_pos + noise, geometry.mat_to_rot6d(topdown_rot(cmd_yaw)), target.grip[None]])
 
     elapsed = es.t + 1
     scheduled = elapsed >= duration + target.hold

@@ -25,6 +25,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from soe_jax import geometry
 from soe_jax.envs import rotations
 from soe_jax.envs import transport as task
 from soe_jax.experts import lift as lift_expert
@@ -50,7 +51,7 @@ LID_LIFT_Z = 1.1
 def _payload(obs):
   """(centre (3,), handle-to-head axis (3,)) of the hammer."""
   q = obs["object"][3:7]
-  return obs["object"][:3], rotations.quat_wxyz_to_mat(jnp.stack([q[3], q[0], q[1], q[2]]))[:, 2]
+  return obs["object"][:3], geometry.quat_wxyz_to_mat(jnp.stack([q[3], q[0], q[1], q[2]]))[:, 2]
 
 
 def _grasp_point(obs, side: float, offset: float):

@@ -19,7 +19,7 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
-from soe_jax.data import poses
+from soe_jax import geometry
 
 FRAMES = ("absolute", "chunk_relative")
 
@@ -95,7 +95,7 @@ class PoseLayout:
     latest = obs_history[:, -1]
     pos = latest[:, self.obs_position[k] : self.obs_position[k] + 3]
     quat = latest[:, self.obs_quat[k] : self.obs_quat[k] + 4]
-    return pos, poses.quat_to_mat(quat, self.quat_order[k])
+    return pos, geometry.quat_to_mat(quat, self.quat_order[k])
 
   def observe(self, obs_history):
     """Raw low-dim histories (B, To, D) -> the same with each arm's end-effector poses in the frame of
@@ -105,8 +105,10 @@ class PoseLayout:
       pos, rot = self._base(obs_history, k)
       p, q = self.obs_position[k], self.obs_quat[k]
       rel_pos = jnp.einsum("bji,btj->bti", rot, obs_history[..., p : p + 3] - pos[:, None])
-      rel_rot = jnp.einsum("bji,btjk->btik", rot, poses.quat_to_mat(obs_history[..., q : q + 4], self.quat_order[k]))
-      out = out.at[..., p : p + 3].set(rel_pos).at[..., q : q + 4].set(poses.mat_to_quat(rel_rot, self.quat_order[k]))
+      rel_rot = jnp.einsum("bji,btjk->btik", rot, geometry.quat_to_mat(obs_history[..., q : q + 4], self.quat_order[k]))
+      out = (
+        out.at[..., p : p + 3].set(rel_pos).at[..., q : q + 4].set(geometry.mat_to_quat(rel_rot, self.quat_order[k]))
+      )
     return out
 
   def to_relative(self, obs_history, actions):
@@ -118,8 +120,8 @@ class PoseLayout:
       pos, rot = self._base(obs_history, k)
       a, r = self.action_position[k], self.action_rot6d[k]
       rel_pos = jnp.einsum("bji,btj->bti", rot, actions[..., a : a + 3] - pos[:, None])
-      rel_rot = jnp.einsum("bji,btjk->btik", rot, poses.rot6d_to_mat(actions[..., r : r + 6]))
-      out = out.at[..., a : a + 3].set(rel_pos).at[..., r : r + 6].set(poses.mat_to_rot6d(rel_rot))
+      rel_rot = jnp.einsum("bji,btjk->btik", rot, geometry.rot6d_to_mat(actions[..., r : r + 6]))
+      out = out.at[..., a : a + 3].set(rel_pos).at[..., r : r + 6].set(geometry.mat_to_rot6d(rel_rot))
     return out
 
   def to_absolute(self, obs_history, actions):
@@ -130,6 +132,6 @@ class PoseLayout:
       pos, rot = self._base(obs_history, k)
       a, r = self.action_position[k], self.action_rot6d[k]
       abs_pos = pos[:, None] + jnp.einsum("bij,btj->bti", rot, actions[..., a : a + 3])
-      abs_rot = jnp.einsum("bij,btjk->btik", rot, poses.rot6d_to_mat(actions[..., r : r + 6]))
-      out = out.at[..., a : a + 3].set(abs_pos).at[..., r : r + 6].set(poses.mat_to_rot6d(abs_rot))
+      abs_rot = jnp.einsum("bij,btjk->btik", rot, geometry.rot6d_to_mat(actions[..., r : r + 6]))
+      out = out.at[..., a : a + 3].set(abs_pos).at[..., r : r + 6].set(geometry.mat_to_rot6d(abs_rot))
     return out

@@ -5,6 +5,7 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
+from soe_jax import geometry
 from soe_jax.envs import controller, panda, rotations
 
 
@@ -31,15 +32,15 @@ def test_forward_kinematics_matches_mujoco(jitted_env):
 def test_initial_eef_pose_matches_robosuite():
   fk = panda.Kinematics((-0.56, 0.0, 0.912)).forward(jnp.asarray(panda.INIT_QPOS))
   np.testing.assert_allclose(fk["site_pos"], [-0.1028, 0.0, 1.0110], atol=2e-4)
-  quat_xyzw = rotations.wxyz_to_xyzw(rotations.mat_to_quat_wxyz(fk["hand_rot"]))
+  quat_xyzw = rotations.wxyz_to_xyzw(geometry.mat_to_quat_wxyz(fk["hand_rot"]))
   np.testing.assert_allclose(np.abs(quat_xyzw), [0.998, 0.0002, 0.0636, 0.0], atol=2e-3)
 
 
 def test_rotation_conversions_round_trip():
   v = jax.random.normal(jax.random.PRNGKey(0), (64, 3))
   mats = rotations.axis_angle_to_mat(v)
-  np.testing.assert_allclose(rotations.rot6d_to_mat(rotations.mat_to_rot6d(mats)), mats, atol=1e-5)
-  np.testing.assert_allclose(rotations.quat_wxyz_to_mat(rotations.mat_to_quat_wxyz(mats)), mats, atol=1e-5)
+  np.testing.assert_allclose(geometry.rot6d_to_mat(geometry.mat_to_rot6d(mats)), mats, atol=1e-5)
+  np.testing.assert_allclose(geometry.quat_wxyz_to_mat(geometry.mat_to_quat_wxyz(mats)), mats, atol=1e-5)
   np.testing.assert_allclose(rotations.axis_angle_to_mat(jnp.zeros(3)), np.eye(3), atol=1e-7)
 
 
@@ -49,7 +50,7 @@ def test_controller_reaches_reachable_target_smoothly(jitted_env):
   start = np.asarray(state.obs["robot0_eef_pos"])
   goal = start + np.array([0.06, -0.05, -0.08], np.float32)
   goal_rot = rotations.axis_angle_to_mat(jnp.array([0.0, 0.0, 0.4])) @ state.obs["robot0_eef_rot"].reshape(3, 3)
-  action = jnp.concatenate([jnp.asarray(goal), rotations.mat_to_rot6d(goal_rot), jnp.array([-1.0])])
+  action = jnp.concatenate([jnp.asarray(goal), geometry.mat_to_rot6d(goal_rot), jnp.array([-1.0])])
   errors = []
   for _ in range(40):
     state = step(state, action)

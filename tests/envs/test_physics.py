@@ -5,14 +5,15 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from soe_jax.envs import agreement, rotations
+from soe_jax import geometry
+from soe_jax.envs import agreement
 from soe_jax.envs.registry import env_names, make_env
 from soe_jax.envs.wrappers import wrap_env
 
 
 def _hold(obs):
   return jnp.concatenate(
-    [obs["robot0_eef_pos"], rotations.mat_to_rot6d(obs["robot0_eef_rot"].reshape(3, 3)), jnp.array([1.0])]
+    [obs["robot0_eef_pos"], geometry.mat_to_rot6d(obs["robot0_eef_rot"].reshape(3, 3)), jnp.array([1.0])]
   )
 
 

@@ -5,7 +5,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from soe_jax.envs import can, lift, panda, rotations, square, transport
+from soe_jax import geometry
+from soe_jax.envs import can, lift, panda, square, transport
 from soe_jax.envs.observations import policy_obs, pose_action, split_policy_obs
 from soe_jax.envs.registry import env_names, make_env
 
@@ -146,7 +147,7 @@ def test_transport_start_states_within_spec_ranges(jitted_env):
   np.testing.assert_allclose(qpos[:, transport.LID_QPOS + 3 : transport.LID_QPOS + 7], [[1, 0, 0, 0]] * 256, atol=1e-6)
   # The hammer lies flat, its handle (body z) along world +y or -y, both ends drawn, within 30 degrees.
   quat = qpos[:, transport.PAYLOAD_QPOS + 3 : transport.PAYLOAD_QPOS + 7]
-  handle = np.asarray(jax.vmap(rotations.quat_wxyz_to_mat)(quat))[:, :, 2]
+  handle = np.asarray(jax.vmap(geometry.quat_wxyz_to_mat)(quat))[:, :, 2]
   np.testing.assert_allclose(handle[:, 2], 0.0, atol=1e-5)
   assert (handle[:, 1] > 0).mean() > 0.3 and (handle[:, 1] < 0).mean() > 0.3
   assert np.abs(handle[:, 1]).min() >= np.cos(np.pi / 6) - 1e-5

@@ -18,7 +18,8 @@ import ml_collections
 import numpy as np
 from flax import struct
 
-from soe_jax.envs import controller, observations, rotations
+from soe_jax import geometry
+from soe_jax.envs import controller, observations
 from soe_jax.envs import registry as env_registry
 from soe_jax.experts import registry as expert_registry
 from tests.experiment.toy_config import NAME, get_config  # noqa: F401 (toy.get_config: the config file's)
@@ -33,7 +34,7 @@ GOAL_RANGE = 0.05
 SUCCESS_RADIUS = 0.05
 MAX_STEP = 0.03  # m per control step towards the commanded position
 HAND_QUAT = np.array([0.0, 0.0, 0.0, 1.0], np.float32)  # xyzw: the hand never turns
-TOP_DOWN = rotations.mat_to_rot6d(jnp.eye(3))  # the action's rotation (the point ignores it)
+TOP_DOWN = geometry.mat_to_rot6d(jnp.eye(3))  # the action's rotation (the point ignores it)
 
 
 @struct.dataclass

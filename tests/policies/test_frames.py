@@ -1,15 +1,14 @@
 """Relative poses at the policy's edge: to_relative and to_absolute invert each other on random poses
-(the base being the latest observation's pose), the latest observed pose becomes the origin, and the
-simulator-free pose helpers agree with the simulator's rotations."""
+(the base being the latest observation's pose), and the latest observed pose becomes the origin."""
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from soe_jax.data import poses
+from soe_jax import geometry
 from soe_jax.data.spec import PolicySpec
-from soe_jax.envs import registry, rotations
+from soe_jax.envs import registry
 from soe_jax.policies import frames
 
 
@@ -29,8 +28,8 @@ def _history_and_chunk(spec, key, b=16, to=2, t=16):
   actions = jax.random.uniform(keys[3], (b, t, spec.action_dim), minval=-1.0, maxval=1.0)
   for k in range(len(layout.action_rot6d)):
     r = layout.action_rot6d[k]
-    mats = poses.quat_to_mat(_random_rotations(jax.random.fold_in(keys[4], k), b * t)).reshape(b, t, 3, 3)
-    actions = actions.at[..., r : r + 6].set(poses.mat_to_rot6d(mats))
+    mats = geometry.quat_to_mat(_random_rotations(jax.random.fold_in(keys[4], k), b * t)).reshape(b, t, 3, 3)
+    actions = actions.at[..., r : r + 6].set(geometry.mat_to_rot6d(mats))
   return layout, obs, actions
 
 
@@ -50,7 +49,7 @@ def test_relative_and_absolute_invert_each_other_on_random_poses_of_two_arms():
   for k in range(2):
     p, q, a, r = layout.obs_position[k], layout.obs_quat[k], layout.action_position[k], layout.action_rot6d[k]
     at_base = actions.at[:, :, a : a + 3].set(obs[:, -1:, p : p + 3])
-    at_base = at_base.at[:, :, r : r + 6].set(poses.mat_to_rot6d(poses.quat_to_mat(obs[:, -1:, q : q + 4])))
+    at_base = at_base.at[:, :, r : r + 6].set(geometry.mat_to_rot6d(geometry.quat_to_mat(obs[:, -1:, q : q + 4])))
     rel = layout.to_relative(obs, at_base)
     np.testing.assert_allclose(rel[..., a : a + 3], 0.0, atol=1e-6)
     np.testing.assert_allclose(
@@ -59,18 +58,6 @@ def test_relative_and_absolute_invert_each_other_on_random_poses_of_two_arms():
     seen = layout.observe(obs)
     np.testing.assert_allclose(seen[:, -1, p : p + 3], 0.0, atol=1e-6)
     np.testing.assert_allclose(seen[:, -1, q : q + 4], jnp.broadcast_to(jnp.array([0.0, 0, 0, 1]), (16, 4)), atol=1e-6)
-
-
-def test_pose_helpers_agree_with_the_simulators_rotations():
-  q = _random_rotations(jax.random.key(1), 64)
-  m = poses.quat_to_mat(q, "xyzw")
-  wxyz = jnp.concatenate([q[:, 3:], q[:, :3]], -1)
-  np.testing.assert_allclose(m, rotations.quat_wxyz_to_mat(wxyz), atol=1e-6)
-  np.testing.assert_allclose(poses.quat_to_mat(wxyz, "wxyz"), m, atol=1e-6)
-  np.testing.assert_allclose(poses.quat_to_mat(poses.mat_to_quat(m)), m, atol=1e-5)
-  np.testing.assert_allclose(
-    poses.rot6d_to_mat(poses.mat_to_rot6d(m)), rotations.rot6d_to_mat(rotations.mat_to_rot6d(m)), atol=1e-6
-  )
 
 
 def test_a_spec_without_poses_is_refused_for_relative_actions():

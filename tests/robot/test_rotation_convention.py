@@ -8,7 +8,8 @@ import ml_collections
 import numpy as np
 import pytest
 
-from soe_jax.data import lerobot, poses, rotations
+from soe_jax import geometry
+from soe_jax.data import lerobot, rotations
 from soe_jax.data import spec as spec_lib
 from soe_jax.policies import agent as agent_lib
 from soe_jax.robot import config as robot_config
@@ -77,7 +78,7 @@ def test_the_server_replies_in_axis_angle_and_its_recording_reads_back(fitted, t
   # The policy's own chunk for the same history and key, its rotation-6d orthonormalised.
   history = agent_lib.initial_history(session.policy_input(spec, obs), loaded.policy.n_obs_steps)
   chunk = np.asarray(Modes(agent, spec)("base", agent, history, session.request_key(0, 0, 0, 0)))[0]
-  d6 = np.asarray(poses.mat_to_rot6d(poses.rot6d_to_mat(chunk[:, 3:9].astype(np.float64), xp=np), xp=np))
+  d6 = np.asarray(geometry.mat_to_rot6d(geometry.rot6d_to_mat(chunk[:, 3:9].astype(np.float64), xp=np), xp=np))
   np.testing.assert_allclose(rotations.to_6d(sent[:, 3:6], ROTVEC), d6, atol=1e-4)
   np.testing.assert_allclose(sent[:, [0, 1, 2, 6]], chunk[:, [0, 1, 2, 9]], atol=1e-5)
   assert session.metadata(spec, agent)["reply_actions"] == [list(map(list, AXIS_ANGLE_ARM))]
