@@ -69,6 +69,7 @@ from soe_jax.envs import registry as env_registry
 from soe_jax.experiment import sections as config_sections
 from soe_jax.experiment.schema import ANY_METHOD_VARIANTS, EXPLORERS, METHODS, PROTOCOLS, VARIANTS
 from soe_jax.explore import registry as strategy_registry
+from soe_jax.explore import sime
 from soe_jax.policies.nets.resnet import RESNET18_WIDTHS
 
 PRESETS = ("smoke", "cpu", "head", "image", "expert_data", "protocol") + tuple(VARIANTS) + METHODS
@@ -281,7 +282,7 @@ def apply_presets(
       c.fit.num_steps = cpu_image_steps
       c.data.num_demos = cpu_image_demos or c.data.num_demos
     if c.explore.strategy.name == "sime":
-      c.explore.strategy.kwargs.scale = 0.5  # SIME's scale for image tasks
+      c.explore.strategy.kwargs.scale = sime.IMAGE_SCALE
   if "head" in presets:
     name = presets["head"]
     c.policy.head.name = name

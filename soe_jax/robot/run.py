@@ -29,6 +29,8 @@ from soe_jax.data import spec as spec_lib
 from soe_jax.data.episodes import EpisodeSet, build_buffer
 from soe_jax.experiment import action_box
 from soe_jax.explore import steering
+from soe_jax.explore.steer import SoeSteer
+from soe_jax.policies import policy as policy_lib
 from soe_jax.policies.agent import Agent
 from soe_jax.robot import dataset as dataset_lib
 from soe_jax.runtime import atomic, interrupt
@@ -42,7 +44,7 @@ SELECTIONS = ("all_successes", "first_success")
 REFIT_MODES = ("continue", "scratch")
 EPISODE_MODES = (*MODES, "recorded")  # a recorded episode's mode (`analysis.labelled.episode_mode`)
 _INIT, _FIT, _SNR = 0, 1, 2  # key streams
-SNR_WINDOWS = 2048  # observation histories the stored SNR is measured over (as `soe_steer`'s)
+SNR_WINDOWS = SoeSteer.snr_windows  # observation histories the stored SNR is measured over (`soe_steer`'s)
 
 
 def _round_dir(workdir: str, r: int) -> str:
@@ -86,7 +88,7 @@ def _prepared(config: ml_collections.ConfigDict, progress: bool):
   if config.policy.encoder.name == "image" and not config.policy.encoder.kwargs.cameras:
     config.policy.encoder.kwargs.cameras = spec.image_keys
   try:
-    policy = checkpoint.policy_from_spec(config.policy, spec)
+    policy = policy_lib.policy_from_spec(config.policy, spec)
   except ValueError as e:
     raise UserError(str(e)) from None
   longest = max(len(ep["actions"]) for ep in demos)

@@ -76,6 +76,8 @@ def _check(words: list[str]) -> list[str]:
     flag, _, value = arg[2:].partition("=")
     if flag == "config" and value and not PLACEHOLDER.search(value):
       spec = value.replace("[", "").replace("]", "")  # (an optional part: configs/square.py[:cpu])
+  if spec is None and name == "refit":  # (its --config. overrides are the robot run's saved re-fit fields)
+    spec = "configs/robot.py"
   config = _config(spec, out)
   for arg in args:
     if not arg.startswith("--") or arg == "--help":
