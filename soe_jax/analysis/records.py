@@ -131,9 +131,22 @@ def mjx_table(records: Records) -> str:
   return markdown(header, rows)
 
 
+def _against_first(r: dict, first: dict) -> str:
+  """A converge record's fit against the first record's on the same check states (same task, evaluation
+  seed and count; the sampling keys follow the training seed): difference, gained / lost, p."""
+  same = lambda rec: (rec["config"].get("env", {}).get("task"), rec["config"].get("eval", {}).get("seed"),
+                      rec["config"].get("seed"))  # fmt: skip
+  a, b = first["check"]["before"], r["check"]["before"]
+  if r is first or same(r) != same(first) or a["num_rollouts"] != b["num_rollouts"] or "success" not in a:
+    return "-"
+  c = metrics.paired_comparison(a["success"], b["success"])
+  return f"{100 * c['difference']:+.1f} pts, {c['gained']} / {c['lost']} (p={c['p_value']:.2g})"
+
+
 def converge_table(records: Records) -> str:
   """`converge` records: the setting (fields differing from the first record's config), the fit,
-  success along it, and the paired check of continuing it."""
+  success along it, the paired check of continuing it, and the fit against the first record's on the
+  same check states."""
   first = records[0][1]["config"]
   rows = []
   for name, r in records:
@@ -151,9 +164,11 @@ def converge_table(records: Records) -> str:
       f"{100 * check['difference']:+.1f} [{100 * check['low']:+.1f}, {100 * check['high']:+.1f}] pts, "
       f"p={check['p_value']:.3f}",
       "yes" if check["converged"] else "no",
+      _against_first(r, records[0][1]),
     ])  # fmt: skip
   header = ["record", "setting", "commit", "steps", "fit time (with in-fit evaluations)", "in-fit success (50 states)",
-            "check: fit -> continued (paired states)", "difference [95% CI], p", "converged"]  # fmt: skip
+            "check: fit -> continued (paired states)", "difference [95% CI], p", "converged",
+            "fit against the first record's (paired)"]  # fmt: skip
   return markdown(header, rows)
 
 

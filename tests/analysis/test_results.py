@@ -34,15 +34,16 @@ def test_convergence_records_get_a_row_per_recipe_naming_diffs(tmp_path):
   def record(lr, before, after):
     curve = [dict(success_rate=0.5), dict(success_rate=0.6)]
     fit = dict(steps=100, time_steps_s=10.0, time_total_s=12.0, eval_curve=curve)
-    ev = lambda s: dict(success_rate=sum(s) / len(s), num_rollouts=len(s))
+    ev = lambda s: dict(success_rate=sum(s) / len(s), num_rollouts=len(s), success=s)
     check = dict(metrics.convergence(before, after, [0.5, 0.6]), before=ev(before), after=ev(after))
     return dict(kind="converge", commit="abc", config=dict(fit=dict(lr=lr, num_steps=100)), fit=fit, check=check)
 
   (tmp_path / "01.json").write_text(json.dumps(record(3e-4, [1, 0, 0, 0], [1, 1, 1, 0])))
-  (tmp_path / "02.json").write_text(json.dumps(record(1e-3, [1, 0, 0, 0], [1, 0, 0, 0])))
+  (tmp_path / "02.json").write_text(json.dumps(record(1e-3, [0, 1, 1, 0], [1, 0, 0, 0])))
   rows = results.table(str(tmp_path)).splitlines()[2:]
   assert rows[0].startswith("| 01 | - | abc | 100 | 10 s (12 s) | 50 / 60 | 25.0% -> 75.0% (n=4) | +50.0")
-  assert rows[0].endswith("| no |") and rows[1].startswith("| 02 | fit.lr=0.001 |") and "+0.0 [+0.0, +0.0]" in rows[1]
+  assert rows[0].endswith("| no | - |") and rows[1].startswith("| 02 | fit.lr=0.001 |")
+  assert "-25.0 [" in rows[1] and rows[1].endswith("| +25.0 pts, 2 / 1 (p=1) |")  # its fit against the first's, paired
 
 
 def test_latent_rows_get_effective_dims_and_paired_exploration(tmp_path):
