@@ -22,6 +22,27 @@ class _NoSimulator(importlib.abc.MetaPathFinder):
     return None
 
 
+# A 7-d axis-angle arm: position, rotation vector, gripper (its action parts, `dataset.actions`).
+AXIS_ANGLE_ARM = (("position", 3), ("axis_angle", 3), ("gripper", 1))
+
+
+def axis_angle_episodes(rng, n: int = 4, length: int = 24) -> list[dict]:
+  """The hand turns about x through angles near pi, either way (the rotation vector's x near +-3.1: a
+  jump of 2 pi between episodes that rotation-6d does not have), drifting; actions as observations."""
+  import numpy as np
+
+  out = []
+  for _ in range(n):
+    pos = rng.uniform(-0.2, 0.2, 3) + np.linspace(0, 0.1, length)[:, None]
+    angle = np.linspace(2.9, 3.1, length) + rng.normal(0, 0.01, length)
+    axis = np.stack([np.ones(length), rng.normal(0, 0.05, length), rng.normal(0, 0.05, length)], -1)
+    rotvec = np.sign(rng.uniform(-1, 1)) * angle[:, None] * axis / np.linalg.norm(axis, axis=-1, keepdims=True)
+    grip = np.linspace(0.08, 0.0, length)[:, None]
+    actions = np.concatenate([pos, rotvec, grip], -1).astype(np.float32)
+    out.append({"obs": {"observation.state": actions.copy()}, "actions": actions})
+  return out
+
+
 def episodes(rng, n: int, length: int, image: bool, success=None) -> list[dict]:
   """Random smooth episodes: the hand drifts towards a goal; the action commands the next pose."""
   import numpy as np

@@ -19,28 +19,13 @@ from soe_jax.robot import dataset as dataset_lib
 from soe_jax.robot import run
 from soe_jax.runtime.errors import UserError
 from soe_jax.train import checkpoint, normalization
-
-AXIS_ANGLE_ARM = (("position", 3), ("axis_angle", 3), ("gripper", 1))
-
-
-def _episodes(rng, n: int = 4, length: int = 24) -> list[dict]:
-  """The hand turns about x through angles near pi (the axis-angle vector's x near +-3.1), drifting."""
-  out = []
-  for _ in range(n):
-    pos = rng.uniform(-0.2, 0.2, 3) + np.linspace(0, 0.1, length)[:, None]
-    angle = np.linspace(2.9, 3.1, length) + rng.normal(0, 0.01, length)
-    axis = np.stack([np.ones(length), rng.normal(0, 0.05, length), rng.normal(0, 0.05, length)], -1)
-    rotvec = np.sign(rng.uniform(-1, 1)) * angle[:, None] * axis / np.linalg.norm(axis, axis=-1, keepdims=True)
-    grip = np.linspace(0.08, 0.0, length)[:, None]
-    actions = np.concatenate([pos, rotvec, grip], -1).astype(np.float32)
-    out.append({"obs": {"observation.state": actions.copy()}, "actions": actions})
-  return out
+from tests.robot.synthetic import AXIS_ANGLE_ARM, axis_angle_episodes
 
 
 @pytest.fixture(scope="module")
 def data(tmp_path_factory):
   root = str(tmp_path_factory.mktemp("axis_angle") / "demos")
-  lerobot.write_dataset(root, _episodes(np.random.default_rng(0)), fps=10)
+  lerobot.write_dataset(root, axis_angle_episodes(np.random.default_rng(0)), fps=10)
   return root
 
 
@@ -58,7 +43,7 @@ def test_an_axis_angle_arm_near_pi_fits_with_no_action_clipped(data, tmp_path):
   spec = json.load(open(os.path.join(workdir, "spec.json")))
   assert spec["action_norm"] == [{"position": "range", "axis_angle": "range", "gripper": "range"}]
   norm = checkpoint.load(os.path.join(workdir, "rounds", "0", "ckpt")).state.normalizer
-  actions = np.concatenate([ep["actions"] for ep in _episodes(np.random.default_rng(0))])
+  actions = np.concatenate([ep["actions"] for ep in axis_angle_episodes(np.random.default_rng(0))])
   scaled = np.asarray(norm.normalize_actions(actions))
   assert np.abs(actions[:, 3]).max() > 3.0 and np.abs(actions * norm.act_scale + norm.act_offset).max() <= 1.0
   # What the policy can command reaches the data's rotations: pi rad, not 1 rad.

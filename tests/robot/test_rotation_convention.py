@@ -18,31 +18,16 @@ from soe_jax.robot import run
 from soe_jax.serve import session
 from soe_jax.serve.modes import Modes
 from soe_jax.train import checkpoint
+from tests.robot.synthetic import AXIS_ANGLE_ARM, axis_angle_episodes
 
-AXIS_ANGLE_ARM = (("position", 3), ("axis_angle", 3), ("gripper", 1))
 ROTVEC = dict(part="axis_angle", convention="rotvec", degrees=False)
-
-
-def _episodes(rng, n: int = 4, length: int = 24) -> list[dict]:
-  """The hand turns about x through angles near pi, either way (the rotation vector's x near +-3.1: a
-  jump of 2 pi between episodes that rotation-6d does not have)."""
-  out = []
-  for _ in range(n):
-    pos = rng.uniform(-0.2, 0.2, 3) + np.linspace(0, 0.1, length)[:, None]
-    angle = np.linspace(2.9, 3.1, length) + rng.normal(0, 0.01, length)
-    axis = np.stack([np.ones(length), rng.normal(0, 0.05, length), rng.normal(0, 0.05, length)], -1)
-    rotvec = np.sign(rng.uniform(-1, 1)) * angle[:, None] * axis / np.linalg.norm(axis, axis=-1, keepdims=True)
-    grip = np.linspace(0.08, 0.0, length)[:, None]
-    actions = np.concatenate([pos, rotvec, grip], -1).astype(np.float32)
-    out.append({"obs": {"observation.state": actions.copy()}, "actions": actions})
-  return out
 
 
 @pytest.fixture(scope="module")
 def fitted(tmp_path_factory):
   root = tmp_path_factory.mktemp("rotation")
   data = str(root / "demos")
-  lerobot.write_dataset(data, _episodes(np.random.default_rng(0)), fps=10)
+  lerobot.write_dataset(data, axis_angle_episodes(np.random.default_rng(0)), fps=10)
   config = robot_config.config("smoke")
   config.policy.head = ml_collections.ConfigDict(dict(name="mlp", kwargs=dict(hidden=(32, 32))))  # (compiles fast)
   config.dataset.update(path=data, actions=(AXIS_ANGLE_ARM,))
@@ -60,7 +45,7 @@ def test_an_axis_angle_arm_near_pi_fits_as_rotation_6d_with_no_action_clipped(fi
   assert spec.action_norm == [{"position": "range", "rotation_6d": "identity", "gripper": "range"}]
   assert spec.robot_rotations == [ROTVEC] and spec.robot_actions == [[list(p) for p in AXIS_ANGLE_ARM]]
   _, demos = dataset_lib.read(config.dataset.path, config.dataset)
-  rotvec = np.concatenate([ep["actions"] for ep in _episodes(np.random.default_rng(0))])[:, 3:6]
+  rotvec = np.concatenate([ep["actions"] for ep in axis_angle_episodes(np.random.default_rng(0))])[:, 3:6]
   np.testing.assert_allclose(np.concatenate([ep["actions"] for ep in demos])[:, 3:9],
                              rotations.to_6d(rotvec, ROTVEC), atol=1e-6)  # fmt: skip
 
@@ -70,7 +55,7 @@ def test_the_server_replies_in_axis_angle_and_its_recording_reads_back(fitted, t
   loaded = checkpoint.load(os.path.join(workdir, "rounds", "0", "ckpt"))
   spec, agent = loaded.spec, loaded.agent
   conn = session.Session(agent, spec, keys=session.Keys(0, instance=0))
-  ep = _episodes(np.random.default_rng(1), 1, 16)[0]
+  ep = axis_angle_episodes(np.random.default_rng(1), 1, 16)[0]
   obs = {k: v[0] for k, v in ep["obs"].items()}
   reply = conn.infer(dict(obs, episode_start=True, timestamp=0.0))
   sent = reply["actions"]
