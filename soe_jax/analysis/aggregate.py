@@ -21,7 +21,7 @@ import os
 from absl import logging
 
 from soe_jax import metrics
-from soe_jax.analysis import report, seed_level
+from soe_jax.analysis import report
 from soe_jax.analysis.tables import markdown, mean_std
 from soe_jax.experiment import rundir, runlog, schema
 from soe_jax.runtime import atomic, faults
@@ -79,14 +79,13 @@ def _check_base_path(control: dict, run: dict, control0, run0) -> None:
 
 
 def comparison(pairs: list[tuple]) -> dict | None:
-  """`metrics.pooled_comparison` of [(reference, method)] per seed, with the per-seed differences and
-  within-seed variances of the seed-level test (`effects`, `seed_level.paired`); None if there are none."""
+  """`metrics.pooled_comparison` of [(reference, method)] per seed (None if there are none)."""
   pairs = [(a, b) for a, b in pairs if a is not None and b is not None]
   if not pairs:
     return None
   if any(len(a) != len(b) for a, b in pairs):
     raise ValueError("paired runs were evaluated on different numbers of start states")
-  return dict(metrics.pooled_comparison(pairs), seeds=len(pairs), effects=seed_level.effects(pairs))
+  return dict(metrics.pooled_comparison(pairs), seeds=len(pairs))
 
 
 def paired_cell(c: dict | None) -> str:

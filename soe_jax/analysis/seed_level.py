@@ -2,8 +2,8 @@
 
 A pooled test over (seed, state) pairs (`metrics.pooled_comparison`'s CMH) measures evaluation noise
 for fixed fits; fitting again moves a seed's difference by more than that. Here each training seed
-gives one paired difference of an arm and its reference on their shared start states (`paired`,
-`mean_difference`), and the seeds combine in two ways:
+gives one paired difference of an arm and its reference on their shared start states (`paired`), and
+the seeds combine in two ways:
 
 - unmoderated (`combine`), one comparison on its own seeds: a random-effects mean with Paule and
   Mandel's iterated between-seed variance tau^2 (statsmodels' `combine_effects(method_re="iterated")`)
@@ -56,17 +56,9 @@ def paired(reference, arm) -> tuple[float, float]:
   return d, max(((gained + lost) / n - d * d) / n, 1.0 / n**2)
 
 
-def mean_difference(reference, arm) -> tuple[float, float]:
-  """Per-state values (N,) of a reference and an arm -> the mean difference and its variance (the
-  sample variance of the differences / N, at least 1 / N^2)."""
-  x = np.asarray(arm, float) - np.asarray(reference, float)
-  n = len(x)
-  return float(x.mean()), max(float(x.var(ddof=1)) / n if n > 1 else 0.0, 1.0 / n**2)
-
-
-def effects(pairs, per_seed=paired) -> Effects:
-  """[(reference, arm) per seed] -> `Effects` by `per_seed` (`paired` or `mean_difference`)."""
-  got = [per_seed(ref, arm) for ref, arm in pairs]
+def effects(pairs) -> Effects:
+  """[(reference, arm) per-state outcomes per seed] -> their `Effects` (`paired`)."""
+  got = [paired(ref, arm) for ref, arm in pairs]
   return Effects(np.array([d for d, _ in got], float), np.array([v for _, v in got], float))
 
 
