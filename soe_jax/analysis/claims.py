@@ -1,14 +1,14 @@
 """The paper's four comparative claims, tested on a campaign's runs (`aggregate.rows`), one sentence each.
 
 The training seed is the replicate (`seed_level`): each comparison is a paired difference per seed on
-the seed's shared start states; verdicts rest on the moderated seed-level test, whose between-seed
-variance is pooled over the comparisons of the same task in the folder (its family):
-- success: a method's last round against the control's (family: every arm against its control, and
-  the control against its round 0);
-- Pass@5: per exploration start state, whether any of its tries succeeded (family: SOE - SIME, SIME -
-  DP and each other exploring method against DP);
-- rollouts: per exploration start state, tries up to the first success, the per-seed mean difference
-  (the same family);
+the seed's shared start states; verdicts rest on the moderated seed-level test, which pools the
+seed-to-seed spread over the fits of the same task in the folder (a `Layout`: seeds x fits):
+- success: a method's last round against the control's (fits: the control, its round 0 and every arm
+  that shares that round 0, the oracle arms left out: `success_fits`);
+- Pass@5: per exploration start state, whether any of its tries succeeded (fits: the exploring
+  methods' per-seed Pass@5);
+- rollouts: per exploration start state, tries up to the first success (fits: the exploring methods'
+  per-seed means);
 - jerk: each seed's mean exploration jerk; a paired t-test over seeds on its logarithm.
 Each line prints the per-seed differences, the seed-level estimate with its 95% interval and p-value,
 and beside it the pooled p-value over (seed, state) pairs (CMH, or the exact sign test for rollouts),
@@ -17,7 +17,7 @@ which treats the fits as fixed.
 Verdicts (`seed_level.verdict`): reproduced (the paper's direction at seed-level p < 0.05),
 contradicted (the interval excludes the tested number on the paper's side), inconclusive (with the
 seeds that would detect the number at 80% power), or an anecdote (fewer than 3 seeds: no p-value).
-The tested numbers (`TESTED`): SOE's success gain is tested against the paper's smallest relative gain
+The tested numbers: SOE's success gain is tested against the paper's smallest relative gain
 of SOE alone, +19.1% of round 0 (its real-robot Table I; the paper gives no number for simulation in
 its text), in points of the seeds' own round 0; the other claims have no magnitude in the paper's text
 and are tested for their direction, against 0 (a ratio of 1 for jerk).
@@ -57,12 +57,6 @@ SUCCESS = "SOE raises success (paper, real robot: SOE alone +19.1% to +38.0% rel
 PASS = "Pass@5 ordered SOE > SIME > DP"
 ROLLOUTS = "SOE needs the fewest rollouts"
 JERK = "SIME's jerk far above DP's and SOE's"
-TESTED = {
-  SUCCESS: f"+{100 * SOE_RELATIVE_GAIN:.1f}% of the seeds' round 0 (the paper's smallest gain of SOE alone, real robot)",
-  PASS: "0 (direction only: the paper's text gives no magnitude)",
-  ROLLOUTS: "0 (direction only: the paper's text gives no magnitude)",
-  JERK: "a ratio of 1 (direction only: the paper's text gives no magnitude for simulation)",
-}
 
 
 def _by_method(rows: list[dict], task: str) -> dict:
