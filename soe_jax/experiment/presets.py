@@ -53,9 +53,10 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
   beside the robot's own low-dim state, without the simulator's object vector (`env.obs_mode`,
   `env.object_vector`), encoded by robomimic's ResNet-18 per camera with random
   76 x 76 crops in training (`policy.encoder`), the images stored unpadded (`data.image_frames`
-  frames), SIME's image-task noise scale 0.5; with `cpu` the trunk's widths are 16/32/64/128 (its fit
-  step ~6x faster here than ResNet-18's 64/128/256/512, which accelerators keep) and round 0 fits for
-  4k steps, about an hour here.
+  frames), SIME's image-task noise scale 0.5; with `cpu` the trunk's widths are 8/16/32/64 (the
+  recipe Lift's screen chose: round 0 converged in about 15 minutes of fit here and level with the
+  16/32/64/128 trunk fitted to convergence; BENCHMARKS.md, "The image recipe under the picked
+  protocol"; accelerators keep ResNet-18's 64/128/256/512) and round 0 fits for the task's steps.
 Single fields are overridden on the command line with `--config.fit.lr=3e-4`.
 """
 
@@ -74,7 +75,7 @@ from soe_jax.policies.nets.resnet import RESNET18_WIDTHS
 
 PRESETS = ("smoke", "cpu", "head", "image", "expert_data", "protocol") + tuple(VARIANTS) + METHODS
 # The image encoder's trunk widths under `cpu,image` and `smoke,image` (ResNet-18's otherwise).
-CPU_IMAGE_WIDTHS = (16, 32, 64, 128)
+CPU_IMAGE_WIDTHS = (8, 16, 32, 64)
 SMOKE_IMAGE_WIDTHS = (8, 8, 16, 16)
 # The bypass's KL weight under `cpu` (the paper's, `base_config`'s, is 1e-3).
 CPU_BETA = 1e-5
@@ -277,8 +278,7 @@ def apply_presets(
     # four, twice that.
     c.data.image_frames = 2_000 if presets.get("smoke") else 40_000 if presets.get("cpu") else 100_000
     if presets.get("cpu") and not presets.get("smoke"):
-      # A round-0 fit within an hour here: the narrow trunk's step is ~0.6 s (BENCHMARKS.md), the head's
-      # and the bypass's come on top.
+      # A round-0 fit within about 15 minutes here (the whole step 118 ms at one frame: BENCHMARKS.md).
       c.fit.num_steps = cpu_image_steps
       c.data.num_demos = cpu_image_demos or c.data.num_demos
     if c.explore.strategy.name == "sime":

@@ -78,12 +78,13 @@ def test_cpu_preset_takes_each_tasks_demos_and_steps():
   assert [c.fit.num_steps for c in (lift, can, square)] == [12_500, 20_000, 20_000]
   assert lift.policy.head.kwargs.down_dims == (32, 64, 128) and lift.fit.lr == 1e-3 and lift.rounds.refit_lr == 3e-4
   assert can_config.get_config("cpu,smoke").data.num_demos == 4  # smoke stays tiny
-  image = lift_config.get_config("cpu,image")  # Lift's image policy: robomimic's 10, fitted for 6k steps
+  image = lift_config.get_config("cpu,image")  # Lift's image recipe: robomimic's 10, the narrow trunk, 7.5k steps
   assert (image.data.num_demos, image.fit.num_steps, can_config.get_config("cpu,image").fit.num_steps) == (
     10,
-    6_000,
+    7_500,
     4_000,
   )
+  assert image.policy.encoder.kwargs.widths == (8, 16, 32, 64) and image.env.image_size == 84
 
 
 def test_cpu_preset_adopts_the_kl_weight_and_aligned_windows_and_its_variants_still_set_them():
