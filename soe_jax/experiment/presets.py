@@ -71,12 +71,9 @@ from soe_jax.experiment import sections as config_sections
 from soe_jax.experiment.schema import ANY_METHOD_VARIANTS, EXPLORERS, METHODS, PROTOCOLS, VARIANTS
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.explore import sime
-from soe_jax.policies.nets.resnet import RESNET18_WIDTHS
+from soe_jax.policies.nets.resnet import CPU_IMAGE_WIDTHS, RESNET18_WIDTHS, SMOKE_IMAGE_WIDTHS
 
 PRESETS = ("smoke", "cpu", "head", "image", "expert_data", "protocol") + tuple(VARIANTS) + METHODS
-# The image encoder's trunk widths under `cpu,image` and `smoke,image` (ResNet-18's otherwise).
-CPU_IMAGE_WIDTHS = (8, 16, 32, 64)
-SMOKE_IMAGE_WIDTHS = (8, 8, 16, 16)
 # The bypass's KL weight under `cpu` (the paper's, `base_config`'s, is 1e-3).
 CPU_BETA = 1e-5
 # The protocol and the demonstrations under `cpu` (docs/protocol.md's rule, applied in RESULTS.md).

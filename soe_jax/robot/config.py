@@ -14,6 +14,7 @@ from __future__ import annotations
 import ml_collections
 
 from soe_jax.experiment import sections
+from soe_jax.policies.nets.resnet import CPU_IMAGE_WIDTHS, RESNET18_WIDTHS, SMOKE_IMAGE_WIDTHS
 
 PRESETS = ("smoke", "cpu", "image")
 # One arm's 10-d action as the paper's robot and Diffusion Policy have it.
@@ -101,7 +102,7 @@ def config(arg: str | None = None) -> ml_collections.ConfigDict:
     c.data.capacity = 64
     c.refit.steps = 20
   if "image" in presets:
-    widths = (8, 8, 16, 16) if "smoke" in presets else (16, 32, 64, 128) if "cpu" in presets else (64, 128, 256, 512)
+    widths = SMOKE_IMAGE_WIDTHS if "smoke" in presets else CPU_IMAGE_WIDTHS if "cpu" in presets else RESNET18_WIDTHS
     # cameras (): every image the spec has; crop_size: a fraction of the image's side when below 1.
     c.policy.encoder = ml_collections.ConfigDict(
       dict(name="image", kwargs=dict(cameras=(), crop_size=0.9, widths=widths))

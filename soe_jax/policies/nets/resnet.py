@@ -72,6 +72,10 @@ class BasicBlock(nn.Module):
 
 
 RESNET18_WIDTHS = (64, 128, 256, 512)
+# The trunk under the `cpu` presets, simulated and robot (the image recipe Lift's screen chose:
+# BENCHMARKS.md, "The image recipe under the picked protocol"), and under `smoke` (tests).
+CPU_IMAGE_WIDTHS = (8, 16, 32, 64)
+SMOKE_IMAGE_WIDTHS = (8, 8, 16, 16)
 
 
 class ResNet18Trunk(nn.Module):
