@@ -27,6 +27,7 @@ import math
 import numpy as np
 from scipy import optimize, special, stats
 
+from soe_jax import metrics
 from soe_jax.analysis import aggregate, seed_level
 from soe_jax.analysis.tables import markdown
 
@@ -72,9 +73,9 @@ def null_comparisons(specs: list[str]) -> list[dict]:
         pairs = [(run["outcomes"]["evaluate"][str(a)], run["outcomes"]["evaluate"][str(b)]) for run in runs]
         z = []
         for ref, arm in pairs:
-          g = int((np.asarray(arm, bool) & ~np.asarray(ref, bool)).sum())
-          lost = int((np.asarray(ref, bool) & ~np.asarray(arm, bool)).sum())
-          z.append((g - lost) / math.sqrt(g + lost) if g + lost else 0.0)
+          c = metrics.paired_comparison(ref, arm)
+          n = c["gained"] + c["lost"]
+          z.append((c["gained"] - c["lost"]) / math.sqrt(n) if n else 0.0)
         out.append(dict(name=f"{folder} ({row['task']}) round {b} against {a}", effects=seed_level.effects(pairs), z=z))
   return out
 
@@ -139,12 +140,9 @@ def unmoderated(d: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def moderated(y: np.ndarray, a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
   """`seed_level.moderated` for R families at once: (R, K, F) per-seed summaries, fit a against fit b
   -> (estimate, p)."""
-  k, f = y.shape[1], y.shape[2]
-  res = y - y.mean(1, keepdims=True) - y.mean(2, keepdims=True) + y.mean((1, 2), keepdims=True)
-  df = (k - 1) * (f - 1)
-  mse = (res**2).sum((1, 2)) / df
+  mse, df = seed_level.residual_variance(y)
   mu = (y[:, :, a] - y[:, :, b]).mean(-1)
-  return mu, 2 * stats.t.sf(np.abs(mu) / np.sqrt(2 * mse / k), df)
+  return mu, 2 * stats.t.sf(np.abs(mu) / np.sqrt(2 * mse / y.shape[1]), df)
 
 
 def _paired(ref: np.ndarray, arm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

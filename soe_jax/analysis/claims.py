@@ -185,6 +185,13 @@ def against_reference(fits: dict[str, dict], reference: str = "control") -> dict
   }
 
 
+def tested_gain(lay: Layout) -> tuple[float, float]:
+  """The success family's round 0 (its mean over seeds) and the gain SOE's claim is tested against, in
+  points: `SOE_RELATIVE_GAIN` of that round 0."""
+  round0 = float(np.mean(lay.y[:, lay.names.index("round 0")]))
+  return round0, SOE_RELATIVE_GAIN * round0
+
+
 def success_claim(rows: list[dict], task: str) -> Claim:
   m = _by_method(rows, task)
   soe, dp = m.get("soe"), m.get("dp")
@@ -193,8 +200,7 @@ def success_claim(rows: list[dict], task: str) -> Claim:
     return Claim(SUCCESS, "not measured", "no soe and control runs")
   lay = layout(rates(fits))
   test = lay.tests([("soe", "control")])[0]
-  round0 = float(np.mean(lay.y[:, lay.names.index("round 0")]))
-  tested = SOE_RELATIVE_GAIN * round0
+  round0, tested = tested_gain(lay)
   verdict = sl.verdict(test, tested)
   detail = describe("SOE against the control", test, soe["comparisons"]["control"]["p_value"])
   detail += f"; tested against {_num(tested, 100, 1)} points (+19.1% of round 0's {100 * round0:.1f}%)"

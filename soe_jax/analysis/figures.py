@@ -49,8 +49,7 @@ def forest_data(folders: list[str]) -> dict:
       for arm, test in zip(arms, lay.tests([(a, "control") for a in arms])):
         extra = {}
         if arm == "soe":
-          round0 = float(np.mean(lay.y[:, lay.names.index("round 0")]))
-          tested = claims.SOE_RELATIVE_GAIN * round0
+          tested = claims.tested_gain(lay)[1]
           extra = dict(tested=round(tested, 6), verdict=sl.verdict(test, tested))
         entries.append(_entry(task, folder, arm, "control", test, **extra))
       (null,) = lay.tests([("control", "round 0")])

@@ -98,7 +98,7 @@ def claims_summary(folders: list[str], brief: bool = False) -> str:
   line per folder and task with its verdict, its numbers and its training seeds; `brief`, a line per
   claim naming each verdict's tasks and seeds. A folder of several rounds answers the claim over
   rounds alone (its other claims would mix rounds)."""
-  found = {}
+  found, families = {}, []
   for folder in folders:
     if not (runs := aggregate.find_runs(folder)):
       raise FileNotFoundError(f"no exported runs in {folder!r} for the claims")
@@ -109,6 +109,8 @@ def claims_summary(folders: list[str], brief: bool = False) -> str:
       for c in tested:
         if c is not None and c.verdict != "not measured":
           found.setdefault(c.title, []).append((task, f"{seeds} seed{'s' if seeds > 1 else ''}", folder, c))
+      if line := family_line(rows, folder, task):
+        families.append(line)
   if brief:
     out = []
     for title, tested in found.items():
@@ -117,9 +119,6 @@ def claims_summary(folders: list[str], brief: bool = False) -> str:
         verdicts.setdefault(c.verdict, []).append(f"{task} ({seeds})")
       out.append(f"- {title}: " + "; ".join(f"**{v}** on {', '.join(w)}" for v, w in verdicts.items()) + ".\n")
     return "".join(out)
-  families = [line for folder in folders
-              for task in sorted({r["task"] for r in aggregate.rows(aggregate.find_runs(folder))})
-              if (line := family_line(folder, task))]  # fmt: skip
   head = "- The moderated test's families of success (every fit of the task in the folder but the oracle arms):\n"
   return "".join(
     f"- {title}:\n"
@@ -128,12 +127,11 @@ def claims_summary(folders: list[str], brief: bool = False) -> str:
   ) + (head + "".join(f"  - {line}\n" for line in families) if families else "")
 
 
-def family_line(folder: str, task: str) -> str:
-  """The family of success of `task` in `folder` (`claims.success_fits`): its fits, its degrees of
-  freedom, the seed-to-seed standard deviation of a difference, and the homogeneity check
+def family_line(rows: list[dict], folder: str, task: str) -> str:
+  """The family of success of `task` in `folder`'s runs (`rows`, `claims.success_fits`): its fits, its
+  degrees of freedom, the seed-to-seed standard deviation of a difference, and the homogeneity check
   (`seed_level.homogeneity` of each fit against the control); "" for a folder of several rounds (its
-  family is the rounds') or without a control."""
-  rows = aggregate.rows(aggregate.find_runs(folder))
+  family is the rounds') or without a control or a second seed."""
   fits = claims.success_fits(rows, task)
   lay = claims.layout(claims.rates(fits)) if len(fits) > 2 else None
   if over_rounds.multi_round(rows) or lay is None or len(lay.seeds) < 2:

@@ -131,14 +131,14 @@ def combine(e: Effects, alpha: float = ALPHA) -> Test:
   return _t_test(e.d, mu, se, df, math.sqrt(tau2 + float(e.v.mean())), alpha)
 
 
-def residual_variance(y: np.ndarray) -> tuple[float, int]:
-  """A (seeds, fits) table of per-seed summaries -> the two-way residual mean square (seeds as blocks)
-  and its degrees of freedom (k - 1)(F - 1)."""
+def residual_variance(y: np.ndarray) -> tuple[np.ndarray, int]:
+  """A (..., seeds, fits) table of per-seed summaries -> the two-way residual mean square (seeds as
+  blocks; one per leading index) and its degrees of freedom (k - 1)(F - 1)."""
   y = np.asarray(y, float)
-  k, f = y.shape
-  res = y - y.mean(0, keepdims=True) - y.mean(1, keepdims=True) + y.mean()
+  k, f = y.shape[-2:]
+  res = y - y.mean(-2, keepdims=True) - y.mean(-1, keepdims=True) + y.mean((-2, -1), keepdims=True)
   df = (k - 1) * (f - 1)
-  return (float((res**2).sum()) / df if df > 0 else math.nan), df
+  return ((res**2).sum((-2, -1)) / df if df > 0 else np.full(y.shape[:-2], math.nan)), df
 
 
 def moderated(y: np.ndarray, contrasts: list[tuple[int, int]], alpha: float = ALPHA) -> list[Test]:
@@ -147,7 +147,7 @@ def moderated(y: np.ndarray, contrasts: list[tuple[int, int]], alpha: float = AL
   fit b, the mean of the per-seed differences with variance 2 MSE / k, t with (k - 1)(F - 1) df."""
   y = np.asarray(y, float)
   mse, df = residual_variance(y)
-  k = y.shape[0]
+  mse, k = float(mse), y.shape[0]
   out = []
   for a, b in contrasts:
     d = y[:, a] - y[:, b]
