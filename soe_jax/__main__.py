@@ -1,5 +1,7 @@
 """`python -m soe_jax COMMAND [flags]`: every command of the project; `python -m soe_jax COMMAND --help`
-prints one command's flags. Listing the commands imports nothing of JAX or MuJoCo."""
+prints one command's flags. A study's own name is a command too, `python -m soe_jax study NAME`'s
+(`STUDY_COMMANDS`: the names launch scripts and committed records use). Listing the commands imports
+nothing of JAX or MuJoCo."""
 
 from __future__ import annotations
 
@@ -11,16 +13,9 @@ COMMANDS = {
   "run": "the self-improvement experiment: round 0, then rounds of explore, keep, re-fit, evaluate",
   "compare": "exploration strategies side by side from one base policy (no re-fit)",
   "campaign": "one task x one training seed of a comparison of methods, each run copied to results/",
-  "converge": "is round 0 converged? a fit, its in-fit evaluations and a paired continuation",
-  "latent": "the latent's SNR per dimension and its effective dimensions, and SOE's exploration from it",
   "aggregate": "finished runs -> one table over tasks x methods, paired with round 0 and the control",
   "results": "committed records under results/ -> tables; --docs regenerates the documents' tables",
-  "calibrate": "the verdicts' tests on simulated campaigns: false positives and power, as a record",
-  "kept": "what the kept episodes of runs look like (lengths, spread, states), as a record",
-  "action_range": "round 0 on the workspace box against the demonstrations' range, by distance outside it",
-  "round0": "a campaign arm's round 0 as a record for results/ (tabled paired with the folder's first)",
-  "fidelity": "how faithful the exploration path is to the base path at the decisions runs recorded",
-  "relabel": "a run's explored states with another path's actions, re-fitted as a new arm",
+  "study": "measurement studies, each with its settings as flags (`study` lists them, `study NAME --help`)",
   "video": "a run's stored episodes drawn to MP4",
   "steer": "steer a run's policy by hand in a local web page",
   "fit": "a robot's policy fitted on a LeRobotDataset alone (round 0, no simulator)",
@@ -32,12 +27,19 @@ COMMANDS = {
   "inspect": "what a data file (HDF5, zarr, RLDS, LeRobotDataset) holds",
   "bench": "performance benchmarks: env, mjx, fit, encoder, sample, rollout, torch",
 }
+# The studies' own command names: `python -m soe_jax NAME` runs `python -m soe_jax study NAME`.
+STUDY_COMMANDS = ("converge", "latent", "fidelity", "kept", "action_range", "round0", "relabel", "calibrate")
 
 
 def usage() -> str:
   width = max(map(len, COMMANDS))
   lines = [f"  {name:<{width}}  {what}" for name, what in COMMANDS.items()]
-  return "usage: python -m soe_jax COMMAND [flags]   (COMMAND --help: its flags)\n\ncommands:\n" + "\n".join(lines)
+  return (
+    "usage: python -m soe_jax COMMAND [flags]   (COMMAND --help: its flags)\n\ncommands:\n"
+    + "\n".join(lines)
+    + "\n\nstudies, each also a command of its own name (python -m soe_jax NAME is python -m soe_jax study NAME):\n  "
+    + ", ".join(STUDY_COMMANDS)
+  )
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -46,6 +48,9 @@ def main(argv: list[str] | None = None) -> None:
     print(usage())
     sys.exit(0 if len(argv) >= 2 else 2)
   name = argv[1]
+  if name in STUDY_COMMANDS:
+    importlib.import_module("soe_jax.commands.study").run(name, [f"python -m soe_jax {name}"] + argv[2:])
+    return
   if name not in COMMANDS:
     print(f"error: unknown command {name!r}; known commands: {', '.join(COMMANDS)}", file=sys.stderr)
     sys.exit(2)

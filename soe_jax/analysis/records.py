@@ -1,42 +1,47 @@
-"""Committed records (`results/<study>/*.json`), a table per kind. Every record states its `kind`, the
-command that wrote it sets it (`record.write_record`), and `TABLES` maps a kind to its table:
+"""Committed records (`results/<study>/*.json`): how a command writes one, and a table per kind. Every
+record states its `kind`, first (`write_record`); the records of a study (`studies/`) are tabled by the
+study (its `table`, found by its `kind`), the others here:
 - `env`, `encoder`, `mjx`: `python -m soe_jax bench env|encoder|mjx --out=...`, a row per record;
-- `converge`: `python -m soe_jax converge`, a row per fitting recipe with its paired check;
-- `latent`: `python -m soe_jax latent`, effective dimensions and exploration, paired episode by episode
-  with the first record's of the same task and seed (and, over several settings or seeds, the
-  effective dimensions per seed);
-- `kept`: `python -m soe_jax kept`, the kept episodes measured (`kept.table`);
-- `round0`: a run's round-0 fit and evaluation (`fit`, `evaluate` with the per-state outcomes), each row
-  paired with the first on the same evaluation start states;
-- `memory`: a run's peak memory, measured by `/usr/bin/time -v`;
-- `serve`: `python -m soe_jax bench serve`, the policy server's latency per chunk, a row per record;
-- `fidelity`: `python -m soe_jax fidelity`, the exploration path against the base path (`fidelity.table`);
-- `action_range`: `python -m soe_jax action_range`, round 0 on the workspace box against the
-  demonstrations' range per distance outside the latter (`action_range.table`);
 - `fit_step`: `python -m soe_jax bench fit --out=...`, the whole policy's fit step, a row per setting;
-- `calibration`: `python -m soe_jax calibrate`, each test's false-positive rate and power on simulated
-  campaigns (`calibration.table`).
+- `serve`: `python -m soe_jax bench serve`, the policy server's latency per chunk, a row per record;
+- `memory`: a run's peak memory, measured by `/usr/bin/time -v`;
+- `demo_styles`: `python -m soe_jax experts --measure`, how varied each demonstrator's episodes are.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from soe_jax import metrics
-from soe_jax.analysis import action_range, calibration, fidelity, kept
-from soe_jax.analysis.tables import markdown, pct, rate
+from soe_jax.analysis.studies import registry as studies
+from soe_jax.analysis.tables import markdown, pct
 from soe_jax.experiment import rundir, runlog, schema
 from soe_jax.registry import Registry
+from soe_jax.runtime import atomic
+from soe_jax.runtime.errors import UserError
+
+if TYPE_CHECKING:
+  from soe_jax.experiment import phases
 
 Records = list[tuple[str, dict]]  # (name, record) in file order
-TABLES: Registry[Callable[[Records], str]] = Registry("record kind")
-# The paper's effective dimensions per task (SNR above 0 dB over the round-0 data).
-PAPER_EFFECTIVE_DIMS = {"lift": 8, "can": 8, "square": 10, "transport": 16}
+TABLES: Registry[Callable[[Records], str]] = Registry("record kind")  # the kinds no study writes
 
 
-def _setting(config: dict, first: dict) -> str:
+def record(source: dict, exp: phases.Experiment, **parts) -> dict:
+  """A study's record from a run of its own: provenance (`source`, taken when the measurement started),
+  the shared round 0's directory, the config, then the study's own parts."""
+  return dict(source, round0_dir=os.path.basename(exp.dir.round0), config=rundir.plain(exp.config), **parts)
+
+
+def write_record(result: dict, path: str, kind: str) -> None:
+  """The committed record: its kind (which table `results` makes of it, `table`), then provenance, then
+  the rest."""
+  os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+  atomic.write_json(path, dict(kind=kind, **result))
+
+
+def differing_settings(config: dict, first: dict) -> str:
   """The settings in which `config` differs from the first record's (or `-`): not its seed, where its
   round 0 lives or how it is logged."""
   a, b = (runlog.flatten(rundir.with_added(c)) for c in (first, config))  # older records lack added fields
@@ -102,8 +107,8 @@ def fit_step_table(records: Records) -> str:
   rows = []
   for name, r in records:
     f = r["fit_step"]
-    rows.append([name, _setting(r["config"], first), r["commit"], f"{f['params'] / 1e6:.2f}M", f["batch_size"],
-                 f"{f['ms_per_step']:.0f} ms", f"{f['samples_per_s']:.0f}"])  # fmt: skip
+    rows.append([name, differing_settings(r["config"], first), r["commit"], f"{f['params'] / 1e6:.2f}M",
+                 f["batch_size"], f"{f['ms_per_step']:.0f} ms", f"{f['samples_per_s']:.0f}"])  # fmt: skip
   return markdown(["record", "setting", "commit", "parameters", "batch", "fit step", "samples/s"], rows)
 
 
@@ -131,145 +136,6 @@ def mjx_table(records: Records) -> str:
   return markdown(header, rows)
 
 
-def _against_first(r: dict, first: dict) -> str:
-  """A converge record's fit against the first record's on the same check states (same task, evaluation
-  seed and count; the sampling keys follow the training seed): difference, gained / lost, p."""
-  same = lambda rec: (rec["config"].get("env", {}).get("task"), rec["config"].get("eval", {}).get("seed"),
-                      rec["config"].get("seed"))  # fmt: skip
-  a, b = first["check"]["before"], r["check"]["before"]
-  if r is first or same(r) != same(first) or a["num_rollouts"] != b["num_rollouts"] or "success" not in a:
-    return "-"
-  c = metrics.paired_comparison(a["success"], b["success"])
-  return f"{100 * c['difference']:+.1f} pts, {c['gained']} / {c['lost']} (p={c['p_value']:.2g})"
-
-
-def converge_table(records: Records) -> str:
-  """`converge` records: the setting (fields differing from the first record's config), the fit,
-  success along it, the paired check of continuing it, and the fit against the first record's on the
-  same check states."""
-  first = records[0][1]["config"]
-  rows = []
-  for name, r in records:
-    fit, check = r["fit"], r["check"]
-    curve = " / ".join(f"{100 * p['success_rate']:.0f}" for p in fit["eval_curve"])
-    b, a = check["before"], check["after"]
-    rows.append([
-      name,
-      _setting(r["config"], first),
-      r["commit"],
-      f"{fit['steps']:,}",
-      f"{fit['time_steps_s']:.0f} s ({fit['time_total_s']:.0f} s)",
-      curve,
-      f"{pct(b['success_rate'])} -> {pct(a['success_rate'])} (n={b['num_rollouts']})",
-      f"{100 * check['difference']:+.1f} [{100 * check['low']:+.1f}, {100 * check['high']:+.1f}] pts, "
-      f"p={check['p_value']:.3f}",
-      "yes" if check["converged"] else "no",
-      _against_first(r, records[0][1]),
-    ])  # fmt: skip
-  header = ["record", "setting", "commit", "steps", "fit time (with in-fit evaluations)", "in-fit success (50 states)",
-            "check: fit -> continued (paired states)", "difference [95% CI], p", "converged",
-            "fit against the first record's (paired)"]  # fmt: skip
-  return markdown(header, rows)
-
-
-def _task_and_size(config: dict) -> tuple[str, int | None]:
-  return config.get("env", {}).get("task", "-"), config["policy"]["bypass"].get("latent_dim")
-
-
-def _kl_weight(config: dict) -> float:
-  return config["policy"]["bypass"]["beta"]
-
-
-def _demo_style(config: dict) -> str:
-  return config.get("data", {}).get("demo_style", schema.ADDED["data.demo_style"])  # (older records lack it)
-
-
-def latent_table(records: Records) -> str:
-  """`latent` records: the setting, round 0's success, the effective dimensions (SNR above the threshold,
-  highest first, with the highest SNR), and the exploration, compared episode by episode with the first
-  record's of the same task and seed (the same start states and keys; '-' for that record); over
-  several tasks, sizes, KL weights, demonstration styles or seeds, the effective dimensions per seed below."""
-  first = records[0][1]
-  paired = lambda r: (_task_and_size(r["config"])[0], r["config"].get("seed"))
-  firsts = {}
-  for name, r in records:
-    firsts.setdefault(paired(r), name)
-  by_name = dict(records)
-  rows = []
-  for name, r in records:
-    lat, ex = r["latent"], r["explore"]
-    ref = firsts[paired(r)]
-    c = metrics.paired_comparison(by_name[ref]["explore"]["success"], ex["success"])
-    vs = "-" if ref == name else f"{c['gained']} / {c['lost']} (p={c['p_value']:.2g})"
-    r0 = r.get("round0")  # (records before round 0's evaluation was part of them: '-')
-    r0 = "-" if r0 is None else f"{pct(r0['success_rate'])} (n={r0['num_rollouts']})"
-    noise = f"{np.median(lat['noise_db']):.1f} dB" if "noise_db" in lat else "-"  # (recorded since the KL ablation)
-    rows.append([
-      name,
-      _setting(r["config"], first["config"]),
-      r["commit"],
-      r0,
-      f"{len(lat['effective_dims'])} {lat['effective_dims']}",
-      f"{max(lat['snr_db']):.1f} dB",
-      noise,
-      rate(ex),
-      f"{pct(ex['pass_at_k'])} (k={ex['k']})",
-      f"{ex['jerk']:.1f}",
-      vs,
-    ])  # fmt: skip
-  header = ["record", "setting", "commit", "round-0 success", "effective dims (SNR > 0 dB)", "highest SNR",
-            "posterior variance E[sigma^2], median over dims", "exploration success", "Pass@k", "jerk",
-            "vs the first of its task and seed: gained / lost (p)"]  # fmt: skip
-  groups = {_summary_group(r["config"]) + (r["config"].get("seed"),) for _, r in records}
-  summary = "\n" + effective_dims_table(records) if len(groups) > 1 else ""  # several groups or seeds
-  return markdown(header, rows) + summary
-
-
-def _summary_group(config: dict) -> tuple:
-  return _task_and_size(config) + (_kl_weight(config), _demo_style(config))
-
-
-def effective_dims_table(records: Records) -> str:
-  """Latent records of several tasks, latent sizes, KL weights, demonstration styles or seeds: per task,
-  latent size d, KL weight and demonstration style, the number of effective dimensions per training seed,
-  their mean ± std, and the paper's number (which it gives with the KL term only)."""
-  groups: dict[tuple, dict] = {}
-  for _, r in records:
-    groups.setdefault(_summary_group(r["config"]), {})[r["config"].get("seed")] = len(r["latent"]["effective_dims"])
-  rows = []
-  for (task, d, beta, style), per_seed in sorted(groups.items()):
-    n = [per_seed[k] for k in sorted(per_seed)]
-    spread = f"{np.mean(n):.1f} ± {np.std(n, ddof=1):.1f}" if len(n) > 1 else f"{n[0]}"
-    seeds = ", ".join(f"seed {k}: {per_seed[k]}" for k in sorted(per_seed))
-    paper = PAPER_EFFECTIVE_DIMS.get(task, "-") if beta else "-"
-    rows.append([task, d, f"{beta:g}", style, len(n), seeds, spread, paper])
-  header = ["task", "latent size d", "KL weight", "demonstrations", "seeds",
-            "effective dimensions (SNR > 0 dB) per seed", "mean ± std", "paper"]  # fmt: skip
-  return markdown(header, rows)
-
-
-def round0_table(records: Records) -> str:
-  """A run's round 0 per record (`fit`, `evaluate`), each paired with the first record's evaluation."""
-  first = records[0][1]["evaluate"]["success"]
-  rows = []
-  for i, (name, r) in enumerate(records):
-    fit, ev = r["fit"], r["evaluate"]
-    c = metrics.paired_comparison(first, ev["success"])
-    rows.append([
-      name,
-      r.get("inputs", "-"),
-      r["commit"],
-      f"{fit['time_total_s']:.0f} s ({fit['time_compile_s']:.0f} s)",
-      f"{fit['final_loss']:.4f}",
-      rate(ev),
-      pct(ev["obs_out_of_range"]) if "obs_out_of_range" in ev else "-",
-      f"{c['gained']} / {c['lost']} (p={c['p_value']:.2g})" if i else "-",
-    ])  # fmt: skip
-  header = ["record", "inputs", "commit", "fit (compile)", "final loss", "success", "obs. features out of range",
-            "vs first: gained / lost (p)"]  # fmt: skip
-  return markdown(header, rows)
-
-
 def memory_table(records: Records) -> str:
   """A run's peak memory per record: what ran, the peak resident set, the image store, the wall time."""
   rows = [[name, r["what"], f"{r['max_rss_gib']:.2f} GiB", f"{r['image_store_gb']:.2f} GB", f"{r['wall_s']:.0f} s"]
@@ -280,10 +146,6 @@ def memory_table(records: Records) -> str:
 TABLES.register("env", env_table)
 TABLES.register("encoder", encoder_table)
 TABLES.register("mjx", mjx_table)
-TABLES.register("converge", converge_table)
-TABLES.register("latent", latent_table)
-TABLES.register("kept", lambda records: kept.table([run for _, r in records for run in r["runs"]]))
-TABLES.register("round0", round0_table)
 TABLES.register("memory", memory_table)
 
 
@@ -327,21 +189,29 @@ def demo_styles_table(records: Records) -> str:
 
 
 TABLES.register("demo_styles", demo_styles_table)
-TABLES.register("fidelity", lambda records: fidelity.table([run for _, r in records for run in r["runs"]]))
-TABLES.register("action_range", lambda records: action_range.table([s for _, r in records for s in r["seeds"]]))
 TABLES.register("fit_step", fit_step_table)
-TABLES.register("calibration", lambda records: calibration.table([r for _, r in records]))
+
+
+def tables() -> dict[str, Callable[[Records], str]]:
+  """Every kind's table: those above and each study's (`studies.registry`), by kind."""
+  found = {kind: TABLES.factory(kind) for kind in TABLES.names()}
+  found.update({s.kind: s.table for s in studies.studies().values() if s.kind})
+  return found
 
 
 def table(records: Records, folder: str = "") -> str:
-  """The table of `records` (from `folder`): all of one kind; a record without a kind is an error naming
-  its file."""
+  """The table of `records` (from `folder`): all of one kind; a record without a kind is an error
+  naming its file, a kind nothing tables one naming the known kinds."""
+  known = tables()
   kinds = set()
   for name, r in records:
     if "kind" not in r:
       path = f"{folder.rstrip('/')}/{name}.json" if folder else f"{name}.json"
-      raise ValueError(f"{path} states no kind (known kinds: {', '.join(TABLES.names())})")
+      raise ValueError(f"{path} states no kind (known kinds: {', '.join(sorted(known))})")
     kinds.add(r["kind"])
   if len(kinds) > 1:
     raise ValueError(f"{folder or 'the records'} holds records of several kinds: {', '.join(sorted(kinds))}")
-  return TABLES.make(kinds.pop(), records)
+  kind = kinds.pop()
+  if kind not in known:
+    raise UserError(f"unknown record kind {kind!r}; known record kinds: {', '.join(sorted(known))}")
+  return known[kind](records)

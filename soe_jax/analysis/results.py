@@ -1,7 +1,7 @@
 """Tables from committed results: a folder of records (`results/<study>/*.json`, each stating its
-`kind`: `records.TABLES` has a table per kind) or of the runs a campaign exported (`python -m soe_jax
-campaign`: the comparison of methods, `campaign_table`, the paper's claims tested on it,
-`soe_jax.analysis.claims`, and where its runs have several rounds the table of rounds and the claim of
+`kind`, by which `records.table` finds its table: a study's or one of its own) or of the runs a
+campaign exported (`python -m soe_jax campaign`: the comparison of methods, `campaign_table`, the
+paper's claims tested on it, `soe_jax.analysis.claims`, and where its runs have several rounds the table of rounds and the claim of
 monotonic improvement, `soe_jax.analysis.over_rounds`).
 
   python -m soe_jax results results/clean_inputs
@@ -28,7 +28,7 @@ from soe_jax.runtime import atomic
 
 
 def table(study: str, pairs: list[str] = ()) -> str:
-  """The table of the records in folder `study` (by their kind, `records.TABLES`), or of the runs a
+  """The table of the records in folder `study` (by their kind, `records.table`), or of the runs a
   campaign exported there (the comparison of methods, the paper's claims, and over rounds where the
   runs have several); with `pairs` (`ARM:REFERENCE`), the campaign's arms against each other instead
   (`against`)."""

@@ -20,7 +20,7 @@ the seeds combine in two ways:
   per comparison at the pooled tau^2. (The differences against a shared control are not independent:
   each holds the control's own fit, so pooling their spreads around their own means would count the
   control's share once per arm; the two-way table counts it once. The calibration study,
-  `calibration.py`, measures the test's false positives.)
+  `studies/calibrate.py`, measures the test's false positives.)
 
 Verdicts (`verdict`) rest on the moderated test; `seeds_needed` gives the training seeds that would
 detect a tested number at 80% power under the family's seed-to-seed variance.

@@ -25,7 +25,7 @@ import json
 import sys
 from collections.abc import Callable
 
-from soe_jax.analysis import record
+from soe_jax.analysis import records
 from soe_jax.bench import encoder, env, mjx, policy, rollout, torch_reference
 from soe_jax.bench import serve as serve_bench
 from soe_jax.envs import backends, observations
@@ -76,7 +76,7 @@ def _env(f: cli.Flags, argv: list[str]) -> dict:
   result = env.run(f.task, f.num_envs, f.backend, f.steps, f.repeats, f.unbatched, f.mjx_impl, f.mjx_settings,
                    f.obs_mode, f.renderer)  # fmt: skip
   if f.out:
-    record.write_record(dict(source, throughput=result), f.out, "env")
+    records.write_record(dict(source, throughput=result), f.out, "env")
   return result
 
 
@@ -93,7 +93,7 @@ def _mjx_flags(f: cli.Flags) -> None:
 def _mjx(f: cli.Flags, argv: list[str]) -> dict:
   result = mjx.run(f.task, f.mjx_impl, f.num_envs, f.mjx_settings, progress=f.progress, argv=argv)
   if f.out:
-    record.write_record(result, f.out, "mjx")
+    records.write_record(result, f.out, "mjx")
   return result["mjx"]
 
 
@@ -111,7 +111,7 @@ def _fit(f: cli.Flags, argv: list[str]) -> dict:
   source = provenance.header(argv)
   result = policy.fit(f.config, f.bypass == "on", f.ema == "on", f.steps, f.repeats)
   if f.out:
-    record.write_record(dict(source, config=rundir.plain(f.config), fit_step=result), f.out, "fit_step")
+    records.write_record(dict(source, config=rundir.plain(f.config), fit_step=result), f.out, "fit_step")
   return result
 
 
@@ -135,7 +135,7 @@ def _encoder(f: cli.Flags, argv: list[str]) -> dict:
     raise cli.UsageError(f"--crop={f.crop} is larger than --image_size={f.image_size}")
   result = encoder.run(f.batch, f.frames, widths, f.image_size, f.crop, f.steps, f.repeats, f.shared)
   if f.out:
-    record.write_record(dict(source, encoder=result), f.out, "encoder")
+    records.write_record(dict(source, encoder=result), f.out, "encoder")
   return result
 
 
@@ -192,7 +192,7 @@ def _serve(f: cli.Flags, argv: list[str]) -> dict:
   source = provenance.header(argv)  # the code as it was when the measurement started
   result = serve_bench.serve(f.config, f.requests, f.warmup)
   if f.out:
-    record.write_record(dict(source, serve=result), f.out, "serve")
+    records.write_record(dict(source, serve=result), f.out, "serve")
   return result
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import json
 
-from soe_jax.analysis import record
+from soe_jax.analysis import records
 from soe_jax.envs import backends
 from soe_jax.experts import collect, workspace
 from soe_jax.experts import registry as expert_registry
@@ -50,7 +50,7 @@ def _run(argv: list[str]) -> None:
   result = collect.record(FLAGS.task, FLAGS.num_episodes, FLAGS.seed, FLAGS.out, FLAGS.backend, FLAGS.style,
                           FLAGS.measure)  # fmt: skip
   if FLAGS.record:
-    record.write_record(dict(source, **result), FLAGS.record, "demo_styles")
+    records.write_record(dict(source, **result), FLAGS.record, "demo_styles")
   print(json.dumps(result))
 
 

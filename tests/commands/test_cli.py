@@ -17,17 +17,18 @@ from soe_jax.runtime import cli
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-# Every command's --help in one process, with MuJoCo Warp unimportable (as without the `gpu` extra,
-# where MJX prints "Failed to import warp" at import): what each printed, and its exit status.
+# Every command's --help in one process (a study's own name among them), with MuJoCo Warp unimportable
+# (as without the `gpu` extra, where MJX prints "Failed to import warp" at import): what each printed,
+# and its exit status.
 _HELP_ALL = """
-import contextlib, importlib, io, json, sys
+import contextlib, io, json, sys
+from soe_jax import __main__ as entry
 out = {}
 for name in sys.argv[1:]:
   buf = io.StringIO()
   with contextlib.redirect_stdout(buf):
-    module = importlib.import_module(f"soe_jax.commands.{name}")
     try:
-      module.main([f"python -m soe_jax {name}", "--help"])
+      entry.main(["soe_jax", name, "--help"])
       code = None
     except SystemExit as e:
       code = e.code
@@ -58,12 +59,13 @@ def test_listing_the_commands_imports_neither_jax_nor_mujoco():
 def test_every_commands_help_exits_0_without_import_noise(tmp_path):
   import json
 
-  done = _run(["-c", _HELP_ALL, *entry.COMMANDS], tmp_path)
+  done = _run(["-c", _HELP_ALL, *entry.COMMANDS, *entry.STUDY_COMMANDS], tmp_path)
   assert done.returncode == 0, done.stderr[-3000:]
   assert "Failed to import" not in done.stdout + done.stderr
   for name, (code, text) in json.loads(done.stdout.splitlines()[-1]).items():
     assert code == 0, (name, code)
-    assert f"python -m soe_jax {name}" in text, (name, text[:300])
+    usage = f"python -m soe_jax study {name}" if name in entry.STUDY_COMMANDS else f"python -m soe_jax {name}"
+    assert usage in text, (name, text[:300])
 
 
 def test_mistakes_are_one_error_line_with_exit_2(capsys):

@@ -58,11 +58,13 @@ def _check(words: list[str]) -> list[str]:
   if not words or PLACEHOLDER.search(words[0]) or words[0].lower() == "command" or words[0] == "--help":
     return []
   name, *args = words
+  if name in entry.STUDY_COMMANDS:  # a study's own name: `study NAME`
+    name, args = "study", [name, *args]
   if name not in entry.COMMANDS:
     return [f"unknown command {name!r}"]
   module = importlib.import_module(f"soe_jax.commands.{name}")
   flags = module.FLAGS
-  if isinstance(flags, dict):  # a command of sub-commands (bench)
+  if isinstance(flags, dict):  # a command of sub-commands (bench, study)
     if not args or PLACEHOLDER.search(args[0]):
       return []
     sub = args[0]
@@ -124,6 +126,10 @@ def test_the_documents_show_command_lines():
     (["run", "--config=configs/lift.py", "--config.fit.num_step=3"], "unknown config field"),
     (["compare", "--config=configs/lift.py", "--tries=5"], "unknown flag --tries"),
     (["bench", "fit", "--task=lift"], "unknown flag --task"),
+    (["study", "converge", "--config=configs/lift.py:cpu", "--extra=1"], None),
+    (["converge", "--config=configs/lift.py:cpu", "--config.fit.num_step=3"], "unknown config field"),
+    (["fidelity", "RUN", "--samples=4", "--windows=3"], "unknown flag --windows"),
+    (["study", "nonsense"], "unknown sub-command 'nonsense'"),
   ],
 )
 def test_the_checker_finds_what_it_should(words, problem):

@@ -92,14 +92,15 @@ def test_compare_explores_each_method_from_round0(smoke_run):
 
 @pytest.mark.slow
 def test_in_fit_evaluations_leave_the_fit_as_it_is(smoke_run, tmp_path):
-  """In-fit evaluations are recorded. `bench converge` on the smoke run's settings: round 0 with evaluations every 20 steps has the
+  """In-fit evaluations are recorded. The `converge` study on the smoke run's settings: round 0 with evaluations every 20 steps has the
   fixture's parameters (fitted without them), then the continuation and the paired check."""
-  from soe_jax.analysis import converge
+  from soe_jax.analysis.studies import converge
   from soe_jax.train import checkpoint
 
   _, config, workdir, _ = smoke_run
-  result = converge.run(config, str(tmp_path / "converge"), eval_every=20, eval_states=3, check_states=4,
-                        extra=0.5, progress=False)  # fmt: skip
+  study = converge.Converge(eval_every=20, eval_states=3, check_states=4, extra=0.5,
+                            workdir=str(tmp_path / "converge"), progress=False)  # fmt: skip
+  result = study.run([], config)
   curve = result["fit"]["eval_curve"]
   assert [p["step"] for p in curve] == [20, 40] and all(len(p["success"]) == 3 for p in curve)
   assert (
@@ -117,16 +118,17 @@ def test_in_fit_evaluations_leave_the_fit_as_it_is(smoke_run, tmp_path):
   assert check["before"]["num_rollouts"] == check["after"]["num_rollouts"] == 4
   assert check["gained"] + check["lost"] <= 4 and isinstance(check["converged"], bool)
   assert "paired states" in converge.curve_lines(result)[-1]
+  assert json.loads(study.report(result).splitlines()[-1])["converged"] == check["converged"]
 
 
 @pytest.mark.slow  # (15 s; the latent's parts are tested in explore/test_steering.py)
 def test_latent_explores_as_the_run_did(smoke_run):
-  """`bench latent` beside the smoke run shares its round 0; its exploration is round 1's, episode for
-  episode, and the effective dimensions are the SNR's above 0 dB, highest first."""
-  from soe_jax.analysis import latent
+  """The `latent` study beside the smoke run shares its round 0; its exploration is round 1's, episode
+  for episode, and the effective dimensions are the SNR's above 0 dB, highest first."""
+  from soe_jax.analysis.studies import latent
 
   root, config, workdir, _ = smoke_run
-  result = latent.run(config, str(root / "latent"), windows=64, progress=False)
+  result = latent.Latent(windows=64, workdir=str(root / "latent"), progress=False).run([], config)
   snr = result["latent"]["snr_db"]
   assert len(snr) == config.policy.bypass.latent_dim
   assert result["latent"]["effective_dims"] == sorted((i for i in range(len(snr)) if snr[i] > 0), key=lambda i: -snr[i])

@@ -1,5 +1,6 @@
-"""What a round kept, episode by episode, against the demonstrations the run started from
-(`python -m soe_jax kept RUN_DIR [RUN_DIR ...] [--round=1] [--out=results/<study>/<name>.json]`).
+"""What a round kept, episode by episode, against the demonstrations the run started from.
+
+  python -m soe_jax study kept RUN_DIR [RUN_DIR ...] [--round=1] [--out=results/<study>/<name>.json]
 
 For each run (a workdir of `run` or of a campaign), the episodes round `--round`'s exploration kept
 (`data/round_<r>.hdf5`) and the run's demonstrations, each episode measured as:
@@ -12,18 +13,22 @@ For each run (a workdir of `run` or of a campaign), the episodes round `--round`
   (Transport: the hammer, which the arms turn on purpose);
 - its grasps: how often the gripper command crosses from open to closed (on a two-arm task, the most
   of either arm), and whether more than once (re-grasped).
-Printed as a table with a row per run (episodes pooled) and a row of the run's demonstrations; `--out`
-writes the record (command, commit, machine, and per run its method, seed and per-episode numbers;
-the runs' configs are in their workdirs) for `results/`, where `python -m soe_jax results` tables it.
+Printed as a table with a row per task and method (episodes pooled over seeds) and a row of the runs'
+demonstrations; `--out` writes the record (command, commit, machine, and per run its method, seed and
+per-episode numbers; the runs' configs are in their workdirs) for `results/`, where `python -m soe_jax
+results` tables it.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 
 import numpy as np
 
+from soe_jax.analysis import records
+from soe_jax.analysis.studies.study import Study, setting
 from soe_jax.analysis.tables import markdown
 from soe_jax.data import hdf5
 from soe_jax.envs import registry
@@ -110,40 +115,49 @@ def pooled(per_episode: dict) -> dict:
   )
 
 
-def table(runs: list[dict]) -> str:
-  """Per task and method the kept episodes pooled over its runs (seeds), and per task the
-  demonstrations of those runs (each seed's once)."""
-  groups: dict[tuple, dict] = {}
-  for r in runs:
-    kept = groups.setdefault((r["task"], r["method"]), {k: [] for k in MEASURES} | {"seeds": set()})
-    demos = groups.setdefault((r["task"], "demonstrations"), {k: [] for k in MEASURES} | {"seeds": set()})
-    for group, measured in ((kept, r["kept"]), (demos, r["demos"])):
-      if r["seed"] in group["seeds"]:
-        continue
-      group["seeds"].add(r["seed"])
-      for k in MEASURES:
-        group[k] += measured[k]
-  rows = []
-  for (task, method), g in sorted(groups.items(), key=lambda x: (x[0][0], x[0][1] != "demonstrations", x[0][1])):
-    p = pooled(g)
-    share = lambda k: f"{p[k]} / {p['episodes']} ({100 * p[k] / p['episodes']:.0f}%)"
-    steps = f"{p['step_boundary_mm']:.1f} / {p['step_inside_mm']:.1f}"
-    rows.append([task, method, len(g["seeds"]), p["episodes"], f"{p['length']:.1f}", steps, share("tipped"),
-                 share("regrasped")])  # fmt: skip
-  header = ["task", "episodes of", "seeds", "episodes", "mean length (steps)",
-            "position step at chunk boundaries / inside chunks (mm)", f"tipped (> {TIPPED_DEG:g}°)", "re-grasped"]  # fmt: skip
-  return markdown(header, rows)
+@dataclasses.dataclass(frozen=True)
+class Kept(Study):
+  round: int = setting(1, "The exploration round whose kept episodes are measured.")
+  name = "kept"
+  kind = "kept"
+  usage = "RUN_DIR [RUN_DIR ...]"
+  takes = "1+"
+  compiles = False
 
+  def run(self, paths, config=None):
+    """Provenance, then `runs`: each run's `run_measures` of round `round`."""
+    return dict(provenance.header(), runs=[run_measures(w, self.round) for w in paths])
 
-def record(workdirs: list[str], r: int) -> dict:
-  """The record of `workdirs`' round `r`: provenance, then `runs`: each run's `run_measures`."""
-  return dict(provenance.header(), runs=[run_measures(w, r) for w in workdirs])
+  @staticmethod
+  def table(committed: records.Records) -> str:
+    """Per task and method the kept episodes pooled over its runs (seeds, over every record), and per
+    task the demonstrations of those runs (each seed's once)."""
+    runs = [run for _, r in committed for run in r["runs"]]
+    groups: dict[tuple, dict] = {}
+    for r in runs:
+      kept = groups.setdefault((r["task"], r["method"]), {k: [] for k in MEASURES} | {"seeds": set()})
+      demos = groups.setdefault((r["task"], "demonstrations"), {k: [] for k in MEASURES} | {"seeds": set()})
+      for group, measured in ((kept, r["kept"]), (demos, r["demos"])):
+        if r["seed"] in group["seeds"]:
+          continue
+        group["seeds"].add(r["seed"])
+        for k in MEASURES:
+          group[k] += measured[k]
+    rows = []
+    for (task, method), g in sorted(groups.items(), key=lambda x: (x[0][0], x[0][1] != "demonstrations", x[0][1])):
+      p = pooled(g)
+      share = lambda k: f"{p[k]} / {p['episodes']} ({100 * p[k] / p['episodes']:.0f}%)"
+      steps = f"{p['step_boundary_mm']:.1f} / {p['step_inside_mm']:.1f}"
+      rows.append([task, method, len(g["seeds"]), p["episodes"], f"{p['length']:.1f}", steps, share("tipped"),
+                   share("regrasped")])  # fmt: skip
+    header = ["task", "episodes of", "seeds", "episodes", "mean length (steps)",
+              "position step at chunk boundaries / inside chunks (mm)", f"tipped (> {TIPPED_DEG:g}°)", "re-grasped"]  # fmt: skip
+    return markdown(header, rows)
 
-
-def write_record(result: dict, path: str) -> None:
-  """The record as JSON, its kind first, a line per run (the per-episode lists stay on it)."""
-  os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
-  result = dict(kind="kept", **result)
-  with atomic.replacing(path) as tmp, open(tmp, "w") as f:
-    f.write("{\n" + ",\n".join(f"{json.dumps(k)}: {json.dumps(v)}" for k, v in result.items() if k != "runs"))
-    f.write(',\n"runs": [\n' + ",\n".join(json.dumps(r) for r in result["runs"]) + "\n]}\n")
+  def write(self, record, path):
+    """The record as JSON, its kind first, a line per run (the per-episode lists stay on it)."""
+    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    result = dict(kind=self.kind, **record)
+    with atomic.replacing(path) as tmp, open(tmp, "w") as f:
+      f.write("{\n" + ",\n".join(f"{json.dumps(k)}: {json.dumps(v)}" for k, v in result.items() if k != "runs"))
+      f.write(',\n"runs": [\n' + ",\n".join(json.dumps(r) for r in result["runs"]) + "\n]}\n")

@@ -1,7 +1,13 @@
-"""Calibration of the tests behind the verdicts: how often each says "different" when nothing is, and
-how often it detects a 5-point effect, on per-state outcomes simulated as the campaigns make them.
+"""How often the verdicts' tests say "different" when nothing is, and their power, on simulated campaigns.
 
-  python -m soe_jax calibrate results/protocol-main/lift --nulls=FOLDER[:1+2+3],... --out=results/calibration/lift.json
+  python -m soe_jax study calibrate RESULTS_DIR --task=lift --nulls=FOLDER[:1+2+3],... [--replicates=20000]
+      [--out=results/calibration/<task>.json]
+
+The tests behind the verdicts, on per-state outcomes simulated as the campaigns make them. The per-state
+difficulty comes from every evaluation of `--task` in RESULTS_DIR (a campaign's exported runs); tau,
+the seed-to-seed spread of a fit, from the null comparisons `--nulls` (each folder's control against
+its round 0, or `FOLDER:1+2+3`, each listed round of its control against the one before it). The table
+is printed; `--out` writes the record (kind `calibration`).
 
 The design simulated (`simulate`), per replicate and training seed: one round 0, its control and four
 exploring arms (dp, sime, soe, soe_steer), each a fit evaluated on the same 200 start states; a state's
@@ -22,14 +28,18 @@ mean(p (1 - p)).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 from scipy import optimize, special, stats
 
 from soe_jax import metrics
-from soe_jax.analysis import aggregate, seed_level
+from soe_jax.analysis import aggregate, records, seed_level
+from soe_jax.analysis.studies.study import Study, setting
 from soe_jax.analysis.tables import markdown
+from soe_jax.runtime import provenance
+from soe_jax.runtime.errors import UserError
 
 ARMS = ("dp", "sime", "soe", "soe_steer")  # the tested arm is soe
 FITS = ("round0", "control") + ARMS
@@ -182,7 +192,7 @@ def simulate(logits: np.ndarray, tau_logit: float, seeds: int, effect: float, re
   return {k: h / replicates for k, h in hits.items()}
 
 
-def study(folder: str, task: str, null_specs: list[str], replicates: int = REPLICATES, seed: int = 0) -> dict:
+def calibration(folder: str, task: str, null_specs: list[str], replicates: int = REPLICATES, seed: int = 0) -> dict:
   """The calibration of `task`'s tests: the null comparisons' tau, then each cell (tau 0 or measured,
   3 or 5 seeds, effect 0 or +-5 points) -> the record's body."""
   logits = difficulty(folder, task)
@@ -198,16 +208,38 @@ def study(folder: str, task: str, null_specs: list[str], replicates: int = REPLI
               replicates=replicates, cells=cells)  # fmt: skip
 
 
-def table(records: list[dict]) -> str:
-  """Per task, tau and seeds: each test's false-positive rate (effect 0) and power (+-5 points) at 0.05."""
-  rows = []
-  for r in records:
-    for c in r["cells"]:
-      kind = "false positives" if c["effect"] == 0 else f"power at {100 * c['effect']:+.0f} points"
-      tau = "0" if c["tau"] == "0" else f"{c['tau_logit']:.2f} (measured: {100 * r['null']['tau_points']:.1f} points)"
-      rates = c["rates"]
-      rows.append([r["task"], tau, c["seeds"], kind, f"{rates['pooled']:.3f}", f"{rates['unmoderated']:.3f}",
-                   f"{rates['moderated']:.3f}", f"{r['replicates']:,}"])  # fmt: skip
-  header = ["task", "tau (logit)", "seeds", "rate of p < 0.05", "pooled CMH", "seed-level (k - 1 df)",
-            "seed-level, moderated (verdicts)", "replicates"]  # fmt: skip
-  return markdown(header, rows)
+@dataclasses.dataclass(frozen=True)
+class Calibrate(Study):
+  task: str = setting(help="The task whose start states' difficulty the simulation draws.")
+  nulls: tuple[str, ...] = setting(help="The null comparisons that measure tau: FOLDER or FOLDER:ROUND+ROUND+...")
+  replicates: int = setting(REPLICATES, "Simulated campaigns per cell.", lower_bound=100)
+  seed: int = setting(0, "The simulation's random seed.")
+  name = "calibrate"
+  kind = "calibration"
+  usage = "RESULTS_DIR"
+  takes = "1"
+  compiles = False
+
+  def run(self, paths, config=None):
+    """Provenance, then the `calibration` of `task` on the folder `paths[0]`."""
+    (folder,) = paths
+    source = provenance.header()
+    try:
+      return dict(source, **calibration(folder, self.task, list(self.nulls), self.replicates, self.seed))
+    except ValueError as e:
+      raise UserError(str(e)) from None
+
+  @staticmethod
+  def table(committed: records.Records) -> str:
+    """Per task, tau and seeds: each test's false-positive rate (effect 0) and power (+-5 points) at 0.05."""
+    rows = []
+    for _, r in committed:
+      for c in r["cells"]:
+        kind = "false positives" if c["effect"] == 0 else f"power at {100 * c['effect']:+.0f} points"
+        tau = "0" if c["tau"] == "0" else f"{c['tau_logit']:.2f} (measured: {100 * r['null']['tau_points']:.1f} points)"
+        rates = c["rates"]
+        rows.append([r["task"], tau, c["seeds"], kind, f"{rates['pooled']:.3f}", f"{rates['unmoderated']:.3f}",
+                     f"{rates['moderated']:.3f}", f"{r['replicates']:,}"])  # fmt: skip
+    header = ["task", "tau (logit)", "seeds", "rate of p < 0.05", "pooled CMH", "seed-level (k - 1 df)",
+              "seed-level, moderated (verdicts)", "replicates"]  # fmt: skip
+    return markdown(header, rows)

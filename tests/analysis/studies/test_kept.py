@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from configs import lift as lift_config
-from soe_jax.analysis import kept, results
+from soe_jax.analysis import results
+from soe_jax.analysis.studies import kept
 from soe_jax.data import hdf5
 from soe_jax.experiment.rundir import RunDir
 from soe_jax.runtime.errors import UserError
@@ -60,7 +61,11 @@ def test_a_runs_kept_episodes_are_tabled_beside_its_demos(tmp_path):
   assert (measured["method"], measured["seed"], measured["kept"]["grasps"]) == ("soe", 0, [6, 1])
   study = tmp_path / "study"
   study.mkdir()
-  (study / "lift.json").write_text(json.dumps(dict(kind="kept", command="x", runs=[measured, dict(measured, seed=1)])))
+  record = dict(command="x", runs=[measured, dict(measured, seed=1)])
+  kept.Kept().write(record, str(study / "lift.json"))  # a line per run, read back as written
+  assert json.loads((study / "lift.json").read_text()) == dict(kind="kept", **record)
+  lines = (study / "lift.json").read_text().splitlines()
+  assert len(lines) == 7 and lines[4] == json.dumps(measured) + ","  # {, kind, command, "runs": [, a line per run, ]}
   rows = results.table(str(study)).splitlines()[2:]
   assert rows[0] == "| lift | demonstrations | 2 | 4 | 12.0 | 3.0 / 3.0 | 0 / 4 (0%) | 0 / 4 (0%) |"
   assert rows[1] == "| lift | soe | 2 | 4 | 12.0 | 16.5 / 3.0 | 2 / 4 (50%) | 2 / 4 (50%) |"

@@ -1,4 +1,9 @@
-"""Labels against states (suspect 2 of "why own successes hurt", README): a finished run's round-1
+"""A run's explored states with another path's actions, re-fitted and evaluated as a new arm.
+
+  python -m soe_jax study relabel SOURCE_RUN --labels=base|explore|recorded [--alpha=0] [--seed=0]
+      [--workdir=<SOURCE_RUN's folder>/<method>] [--results=RESULTS_DIR]
+
+Labels against states (suspect 2 of "why own successes hurt", README): a finished run's round-1
 exploration copied into a new run whose kept episodes keep their states but have the actions at every
 recorded decision replaced by another path's chunk for the same observation history; the new run then
 resumes at round 1's re-fit, paired with the shared control like any arm.
@@ -10,10 +15,17 @@ Labels (`labels`):
 Chunks are sampled with fold_in(fold_in(key(seed), episode), decision), `seed` the relabelling's own
 (a fresh draw of the same path is another seed). The new run's method is `<source>-relabel_<labels>`
 (`_alpha<alpha>` for the exploration path, `_s<seed>` for a seed other than 0).
+
+The new run lies beside the source (in its folder, named by its method), shares its round 0, and
+resumes at round 1's re-fit as `run` would; running the command again resumes it. `--results` copies
+its small files beside a campaign's runs, where it pairs with their control. It writes no record of
+its own: the last lines printed are the run's report's path and numbers.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import os
 import shutil
 
@@ -21,11 +33,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from soe_jax.analysis import aggregate, campaign
+from soe_jax.analysis import report as run_report
+from soe_jax.analysis.studies.study import Study, setting
 from soe_jax.data import hdf5
 from soe_jax.data.episodes import decisions
-from soe_jax.experiment import rundir
+from soe_jax.experiment import loop, rundir
 from soe_jax.experiment.rundir import RunDir
-from soe_jax.runtime import atomic
+from soe_jax.runtime import atomic, cli, provenance
 from soe_jax.runtime.errors import UserError
 from soe_jax.train import checkpoint
 
@@ -94,3 +109,40 @@ def make(source: str, workdir: str, labels: str, alpha: float = 0.0, seed: int =
   os.makedirs(new.round_dir(1), exist_ok=True)
   atomic.write_json(new.phase_path(1, "explore"), record)  # last: the exploration counts as done
   return config.method
+
+
+@dataclasses.dataclass(frozen=True)
+class Relabel(Study):
+  labels: str = setting(help="Whose chunks label the recorded decisions.", values=LABELS)
+  alpha: float = setting(0.0, "The exploration path's scale (labels=explore).", lower_bound=0.0)
+  seed: int = setting(0, "The relabelling's sampling seed (another seed: a fresh draw of the same path).")
+  workdir: str | None = setting(None, "The new run's directory (default: beside the source, named by its method).")
+  results: str | None = setting(
+    None, "Also copy the finished run's small files to <results>/<task>/seed<k>/<method>/, as `campaign` does."
+  )
+  progress: bool = setting(True, "Progress bars.")
+  name = "relabel"
+  kind = None
+  usage = "SOURCE_RUN"
+  takes = "1"
+  interrupted = cli.PHASES_SAVED
+
+  def run(self, paths, config=None):
+    """The relabelled run made, run and reported (and copied to `results`) -> {report: its path,
+    summary: its report's numbers}."""
+    (source,) = paths
+    name = method_name(rundir.load_config(source).method, self.labels, self.alpha, self.seed)
+    workdir = self.workdir or os.path.join(os.path.dirname(os.path.abspath(source)), name)
+    header = provenance.header()
+    make(source, workdir, self.labels, self.alpha, self.seed)
+    config = rundir.load_config(workdir)
+    loop.run(config, workdir, self.progress)
+    summary = run_report.write(workdir)
+    if self.results:
+      dest = os.path.join(self.results, config.env.task, f"seed{config.seed}", config.method)
+      campaign.export(workdir, dest, dict(header, source_run=os.path.abspath(source)))
+      aggregate.write(self.results)
+    return dict(report=os.path.join(workdir, "report.md"), summary=summary)
+
+  def report(self, record):
+    return f"report: {record['report']}\n{json.dumps(record['summary'])}\n"

@@ -7,7 +7,7 @@ import os
 import numpy as np
 import pytest
 
-from soe_jax.analysis import fidelity
+from soe_jax.analysis.studies import fidelity
 from soe_jax.experiment.rundir import RunDir
 
 pytestmark = pytest.mark.usefixtures("toy_task")
@@ -15,7 +15,9 @@ pytestmark = pytest.mark.usefixtures("toy_task")
 
 def test_fidelity_measures_every_recorded_decision(toy_run):
   _, config, workdir = toy_run
-  out = fidelity.measure(workdir, samples=4, alphas=(0.0, 2.0))
+  record = fidelity.Fidelity(samples=4, alphas=(0.0, 2.0)).run([workdir])
+  (out,) = record["runs"]
+  assert {"command", "commit", "machine"} <= set(record)
   run = RunDir(workdir, config)
   kept = run.kept(json.load(open(run.phase_path(1, "explore"))))
   ta = config.policy.n_action_steps
@@ -27,4 +29,4 @@ def test_fidelity_measures_every_recorded_decision(toy_run):
   assert all(len(v) == out["decisions"] and np.all(np.isfinite(v)) and min(v) >= 0 for v in per.values())
   fit0 = json.load(open(os.path.join(run.round0, "fit.json")))
   assert out["beta_kl"] == pytest.approx(config.policy.bypass.beta * fit0["final_metrics"]["kl"])
-  assert "| toy | soe | 0 |" in fidelity.table([out])
+  assert "| toy | soe | 0 |" in fidelity.Fidelity.table([("toy", record)])

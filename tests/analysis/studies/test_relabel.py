@@ -7,8 +7,9 @@ import os
 import numpy as np
 import pytest
 
+from soe_jax.analysis.studies import relabel
 from soe_jax.data import hdf5
-from soe_jax.experiment import loop, relabel, rundir
+from soe_jax.experiment import loop, rundir
 from soe_jax.experiment.rundir import RunDir
 
 pytestmark = pytest.mark.usefixtures("toy_task")
@@ -44,12 +45,12 @@ def test_the_identity_relabelling_reproduces_the_round_and_base_labels_change_on
 
 
 def test_the_relabel_command_exports_beside_a_campaigns_runs(toy_run, tmp_path):
-  from soe_jax.commands import relabel as command
+  from soe_jax import __main__ as entry
 
   _, _, workdir = toy_run
   results = tmp_path / "results"
-  command.main(["python -m soe_jax relabel", workdir, "--labels=recorded", f"--workdir={tmp_path / 'id'}",
-                f"--results={results}", "--progress=false"])  # fmt: skip
+  entry.main(["soe_jax", "relabel", workdir, "--labels=recorded", f"--workdir={tmp_path / 'id'}",
+              f"--results={results}", "--progress=false"])  # fmt: skip
   exported = results / "toy" / "seed0" / "soe-relabel_recorded"
   assert {"command.json", "config.json", "metrics.jsonl", "outcomes.json", "report.md"} <= set(os.listdir(exported))
   assert json.load(open(exported / "command.json"))["source_run"] == os.path.abspath(workdir)

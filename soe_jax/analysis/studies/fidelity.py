@@ -1,9 +1,8 @@
-"""How faithful the exploration path is to the base path, at the decisions a run recorded (suspect 2 of
-"why own successes hurt", README).
+"""How faithful the exploration path is to the base path at the decisions runs recorded.
 
-  python -m soe_jax fidelity RUN_DIR [RUN_DIR ...] [--samples=8] [--alphas=0,1,2] [--out=FILE.json]
+  python -m soe_jax study fidelity RUN_DIR [RUN_DIR ...] [--samples=8] [--alphas=0,1,2] [--out=FILE.json]
 
-For each run (a finished run or campaign workdir), its round-0 policy and the episodes its round-1
+Suspect 2 of "why own successes hurt" (README). For each run (a finished run or campaign workdir), its round-0 policy and the episodes its round-1
 exploration kept; at every recorded decision (every Ta steps of each kept episode, the observation
 history as the policy saw it):
 - the base path's own spread: `samples` chunks of D(E(o)) with their executed positions, the mean
@@ -15,22 +14,27 @@ history as the policy saw it):
   history itself), un-normalised: its error in the end effector's position, the object's position and
   their difference (mm; the latest frame).
 With the round-0 fit's final beta KL and IB head loss (its record). Distances are over every robot's
-executed positions, averaged over the steps of the chunk.
+executed positions, averaged over the steps of the chunk. Prints a table with a row per run (medians
+over its decisions, in mm); `--out` also writes the record (command, commit, machine, per run its
+per-decision numbers) for `results/`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from soe_jax.analysis import records
+from soe_jax.analysis.studies.study import Study, setting
 from soe_jax.analysis.tables import markdown
 from soe_jax.data.episodes import decisions
 from soe_jax.experiment import rundir
 from soe_jax.experiment.rundir import RunDir
-from soe_jax.runtime import atomic
+from soe_jax.runtime import atomic, provenance
 from soe_jax.runtime.errors import UserError
 from soe_jax.train import checkpoint
 
@@ -113,18 +117,35 @@ def measure(workdir: str, samples: int = 8, alphas=(0.0, 1.0, 2.0), seed: int = 
   )
 
 
-def table(runs: list[dict]) -> str:
-  """A row per run: medians over its decisions (mm), and the round-0 fit's beta KL and IB head loss."""
-  rows = []
-  for r in runs:
-    p = r["per_decision"]
-    med = lambda k: f"{np.median(p[k]):.1f}" if p.get(k) else "-"
-    explore = " / ".join(med(f"explore_alpha{a:g}") for a in r["alphas"])
-    kl = "-" if r["beta_kl"] is None else f"{r['beta_kl']:.2e}"
-    ib = "-" if r["ib_head_loss"] is None else f"{r['ib_head_loss']:.4f}"
-    rows.append([r["task"], r["method"], r["seed"], f"{r['beta']:g}", r["decisions"], med("base_spread"), explore,
-                 med("recorded"), med("recon_eef"), med("recon_object"), med("recon_relative"), kl, ib])  # fmt: skip
-  header = ["task", "run", "seed", "beta", "decisions", "base spread", "exploration path at alpha "
-            + "/".join(f"{a:g}" for a in (runs[0]["alphas"] if runs else [])), "recorded", "q(mu(c)): end effector",
-            "object", "end effector - object", "beta KL", "IB head loss"]  # fmt: skip
-  return markdown(header, rows) + "\n(medians over the decisions, in mm; distances from the base path's mean)\n"
+@dataclasses.dataclass(frozen=True)
+class Fidelity(Study):
+  samples: int = setting(8, "Chunks per decision from each path.", lower_bound=2)
+  alphas: tuple[float, ...] = setting((0.0, 1.0, 2.0), "The exploration path's scales.")
+  name = "fidelity"
+  kind = "fidelity"
+  usage = "RUN_DIR [RUN_DIR ...]"
+  takes = "1+"
+
+  def run(self, paths, config=None):
+    """Provenance, then `runs`: each run's `measure`."""
+    source = provenance.header()
+    return dict(source, runs=[measure(w, self.samples, self.alphas) for w in paths])
+
+  @staticmethod
+  def table(committed: records.Records) -> str:
+    """A row per run of every record: medians over its decisions (mm), and the round-0 fit's beta KL
+    and IB head loss."""
+    runs = [run for _, r in committed for run in r["runs"]]
+    rows = []
+    for r in runs:
+      p = r["per_decision"]
+      med = lambda k: f"{np.median(p[k]):.1f}" if p.get(k) else "-"
+      explore = " / ".join(med(f"explore_alpha{a:g}") for a in r["alphas"])
+      kl = "-" if r["beta_kl"] is None else f"{r['beta_kl']:.2e}"
+      ib = "-" if r["ib_head_loss"] is None else f"{r['ib_head_loss']:.4f}"
+      rows.append([r["task"], r["method"], r["seed"], f"{r['beta']:g}", r["decisions"], med("base_spread"), explore,
+                   med("recorded"), med("recon_eef"), med("recon_object"), med("recon_relative"), kl, ib])  # fmt: skip
+    header = ["task", "run", "seed", "beta", "decisions", "base spread", "exploration path at alpha "
+              + "/".join(f"{a:g}" for a in (runs[0]["alphas"] if runs else [])), "recorded", "q(mu(c)): end effector",
+              "object", "end effector - object", "beta KL", "IB head loss"]  # fmt: skip
+    return markdown(header, rows) + "\n(medians over the decisions, in mm; distances from the base path's mean)\n"

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from soe_jax.analysis import action_range
+from soe_jax.analysis.studies import action_range
 
 
 def test_distance_outside_is_zero_inside_and_euclidean_beyond_a_corner():
@@ -16,7 +16,8 @@ def test_table_buckets_states_by_distance_and_pairs_the_two_round0s():
     distance_mm=[0, 0, 2, 7, 12, 15],
     round0={"demonstrations": [1, 1, 1, 0, 0, 0], "workspace": [1, 0, 1, 1, 1, 1]},
   )
-  rows = {line.split(" | ")[0].strip("| "): line.split(" | ") for line in action_range.table([seed]).splitlines()[2:]}
+  table = action_range.ActionRange.table([("lift", dict(seeds=[seed]))])
+  rows = {line.split(" | ")[0].strip("| "): line.split(" | ") for line in table.splitlines()[2:]}
   assert rows["inside"][1:5] == ["2", "100.0%", "50.0%", "0 / 1"]
   assert rows["< 5 mm"][1:5] == ["1", "100.0%", "100.0%", "0 / 0"]
   assert rows["5-10 mm"][1:5] == ["1", "0.0%", "100.0%", "1 / 0"]
