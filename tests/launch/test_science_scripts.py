@@ -83,7 +83,8 @@ def test_every_part_of_why_own_successes_starts_commands_that_load(parsed, monke
   monkeypatch.setenv("CONFIG", "configs/lift.py:smoke")
   monkeypatch.setenv("SQUARE_CONFIG", "configs/square.py:smoke")
   lines = parsed("why_own_successes.sh", "1", "/tmp/runs-why", part)
-  assert lines and all(argv[:2] == ["-m", "soe_jax"] and argv[2] in dispatcher.COMMANDS for argv, _ in lines)
+  commands = {*dispatcher.COMMANDS, *dispatcher.STUDY_COMMANDS}  # (relabel, fidelity, latent: studies' own names)
+  assert lines and all(argv[:2] == ["-m", "soe_jax"] and argv[2] in commands for argv, _ in lines)
   configs = [c for _, found in lines if found for c in found.values()]
   task = "square" if part == "square" else "lift"
   assert configs and all(c.seed == 1 and c.env.task == task for c in configs)
