@@ -7,8 +7,9 @@
 A study's flags are its settings (the fields of its dataclass), with `--config` for a study of a
 config and `--out` for one that writes a record. It prints what it found; `--out` also writes its
 record (its kind, the command, the commit and the machine, what it measured) for `results/`, where
-`python -m soe_jax results` tables it. Each study of the list below is also a command of its own name,
-`python -m soe_jax NAME`, with the same flags.
+`python -m soe_jax results` tables it. The studies that launch scripts and committed records name by
+their own name are commands of that name too (`python -m soe_jax converge` is `python -m soe_jax study
+converge`; `python -m soe_jax --help` lists them).
 """
 
 from __future__ import annotations
