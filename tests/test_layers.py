@@ -62,3 +62,14 @@ def test_no_module_imports_upward():
       if _level(module) > _level(here):
         upward.append(f"{path.relative_to(ROOT)} imports {module}")
   assert not upward, upward
+
+
+def test_the_robot_and_the_server_import_nothing_of_the_simulated_run():
+  """`robot/` and `serve/` fit and serve without the experiment's code (`train.round` is the fit both
+  paths take)."""
+  found = []
+  for part in ("robot", "serve"):
+    for path in (ROOT / part).rglob("*.py"):
+      found += [f"{path.relative_to(ROOT)} imports {m}" for m in _imports(ast.parse(path.read_text()))
+                if _part(m) == "experiment"]  # fmt: skip
+  assert not found, found

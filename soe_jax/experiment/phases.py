@@ -13,9 +13,8 @@ import ml_collections
 import numpy as np
 
 from soe_jax import metrics
-from soe_jax.data import buffer as buffer_lib
-from soe_jax.data.episodes import EpisodeSet, build_buffer
-from soe_jax.experiment import action_box, runlog, task, video
+from soe_jax.data.episodes import EpisodeSet
+from soe_jax.experiment import runlog, task, video
 from soe_jax.experiment import select as select_lib
 from soe_jax.experiment.rundir import RunDir
 from soe_jax.experts import collect
@@ -24,12 +23,12 @@ from soe_jax.explore import registry as strategy_registry
 from soe_jax.explore import rollout
 from soe_jax.policies.agent import Agent
 from soe_jax.render.pool import RenderError
-from soe_jax.runtime import interrupt
-from soe_jax.train import checkpoint, train_state
-from soe_jax.train import fit as fit_lib
+from soe_jax.train import checkpoint
+from soe_jax.train import round as round_lib
+from soe_jax.train.partial import PartialFit
 
-# Per-round key streams.
-_FIT, _EXPLORE, _EVALUATE, _FIT_EVALUATE = 1, 2, 3, 4
+# Per-round key streams (the fit's: `round_lib.FIT`, 1).
+_EXPLORE, _EVALUATE, _FIT_EVALUATE = 2, 3, 4
 
 
 def evaluation_starts(config: ml_collections.ConfigDict, n: int | None = None) -> jax.Array:
@@ -54,18 +53,11 @@ class Experiment:
     self.env = task.env(config)
     self.policy = task.policy(config)
     self.spec = task.spec(config)
-    self.root = jax.random.key(int(config.seed))
     self.timer = runlog.CompileTimer()
-    self._optimizers = {}
-
-  def optimizer(self, steps: int, lr: float):
-    """One optimiser object per schedule, so later rounds reuse the compiled fit chunks."""
-    if (steps, lr) not in self._optimizers:
-      self._optimizers[steps, lr] = train_state.make_optimizer(self.config.fit, steps, lr)
-    return self._optimizers[steps, lr]
+    self.fitter = round_lib.RoundFit(self.policy, config, self.spec)
 
   def key(self, r: int, stream: int):
-    return jax.random.fold_in(jax.random.fold_in(self.root, r), stream)
+    return round_lib.round_key(self.config.seed, r, stream)
 
   def agent(self, state) -> Agent:
     return Agent.from_state(self.policy, state)
@@ -152,62 +144,6 @@ class Experiment:
     ok = batch["success"].astype(bool)
     return dict(rec, num_episodes=int(ok.sum()), expert_success_rate=float(ok.mean())), collect.split_episodes(batch)
 
-  def fit(self, buf, norm, r: int, init_state=None, steps: int | None = None):
-    """Round 0 / scratch: fresh parameters, `fit.num_steps` at `fit.lr`; continue: from `init_state`,
-    `rounds.refit_steps` at `rounds.refit_lr` (0: `fit.lr`), its EMA restarted from the parameters or
-    carried on (`rounds.refit_ema`). `steps` overrides the number of steps.
-    With `fit.eval_every`, the EMA policy is evaluated along the way (`eval_curve` in the record)."""
-    c = self.config
-    if init_state is None:
-      steps, lr = int(steps or c.fit.num_steps), float(c.fit.lr)
-      params = self.policy.init(jax.random.fold_in(self.key(r, _FIT), 0))
-    else:
-      steps, lr = int(steps or c.rounds.refit_steps), float(c.rounds.refit_lr or c.fit.lr)
-      params = init_state.params
-    tx = self.optimizer(steps, lr)
-    # fit donates its input state: build it from copies, so `norm` and `init_state` stay usable.
-    state = jax.tree.map(jnp.copy, train_state.create(params, tx, norm, ema=c.fit.ema))
-    if init_state is not None and c.rounds.refit_ema == "carry" and init_state.ema_params is not None:
-      # The EMA goes on from the previous fit's (its step too, so its decay does), as one long fit's would.
-      state = state.replace(ema_params=jax.tree.map(jnp.copy, init_state.ema_params), step=jnp.copy(init_state.step))
-    start, history = 0, []
-    if (partial := self.dir.partial_fit(r)) is not None:  # an interrupted fit: continue it
-      state, start, history = partial
-    chunks = lambda every: max(1, int(every) // int(c.fit.chunk_size)) if every else 0
-    save_every, eval_every = chunks(c.fit.checkpoint_every), chunks(c.fit.eval_every)
-    key = jax.random.fold_in(self.key(r, _FIT), 1)
-    with interrupt.deferred("stopping: saving the fit after the chunk in progress (again to stop now)") as stop:
-
-      def on_chunk(state, done, history):
-        n = done // int(c.fit.chunk_size)
-        if done == start + 2 * int(c.fit.chunk_size) and done < steps:  # the first chunk compiled; the second ran
-          pace = history[-1]["chunk_s"] / int(c.fit.chunk_size)
-          runlog.between_bars(f"round {r} fit: {1000 * pace:.0f} ms per step, about "
-                              f"{runlog.duration(pace * (steps - done))} left of {steps:,} steps")  # fmt: skip
-        if eval_every and (n % eval_every == 0 or done == steps):
-          t = time.perf_counter()
-          # Round 0's key in every round: the curves of a fit and of its continuation are paired.
-          ev = self.evaluate(state, r, int(c.fit.eval_states), self.key(0, _FIT_EVALUATE), progress=False)
-          history[-1].update(eval_success=ev["success"], eval_s=round(time.perf_counter() - t, 3))
-        if stop or (save_every and done < steps and n % save_every == 0):
-          self.dir.save_partial_fit(r, state, done, history)
-        if stop:
-          raise KeyboardInterrupt
-
-      # Re-fits draw their batches as the round's settings say (round 0 holds demonstrations alone).
-      sampling = (
-        buffer_lib.Sampling(float(c.rounds.demo_fraction), bool(c.rounds.aligned_windows)) if r else buffer_lib.UNIFORM
-      )
-      state, history = fit_lib.fit(self.policy, tx, state, buf, key, steps, c.fit, self.progress, f"round {r} fit",
-                                   start, history, on_chunk, sampling)  # fmt: skip
-    info = dict(steps=steps, final_loss=history[-1]["loss"], loss_curve=[h["loss"] for h in history])
-    # The last chunk's mean of each loss term (the bypass's KL and IB head loss among them).
-    info["final_metrics"] = {k: history[-1][k] for k in FINAL_METRICS if k in history[-1]}
-    info["time_steps_s"] = round(sum(h.get("chunk_s", 0.0) for h in history), 2)  # without in-fit evaluations
-    if eval_every:
-      info["eval_curve"] = eval_curve(history)
-    return state, info
-
   def timed(self, fn):
     """(fn(), {time_total_s, time_compile_s})."""
     self.timer.take()
@@ -229,17 +165,20 @@ class Experiment:
     return record, value
 
   def fit_phase(self, r: int, sets: list[EpisodeSet], norm, init_state=None, steps: int | None = None):
-    """Round r's fit on `sets`, its policy saved with the record -> the fitted TrainState."""
+    """Round r's fit on `sets` (`round.RoundFit`), its policy saved with the record -> the fitted
+    TrainState."""
+    partial = PartialFit(self.dir.partial_fit_dir(r))
+    c = self.config
+
+    def evaluate(state):  # round 0's key in every round: the curves of a fit and of its continuation are paired
+      return self.evaluate(state, r, int(c.fit.eval_states), self.key(0, _FIT_EVALUATE), progress=False)
 
     def work():
-      clipped = action_box.check(sets, norm, self.spec, self.config.policy.action_range, self.dir.set_path, self.policy)
-      state, info = self.fit(build_buffer(self.config, self.policy, sets, self.env), norm, r, init_state, steps)
+      buf, clipped = self.fitter.data(sets, norm, self.dir.set_path, self.env)
+      state, info = self.fitter.fit(buf, norm, r, partial, init_state, steps, self.progress, evaluate)
       return dict(info, num_episodes=sum(len(s.episodes) for s in sets), actions_clipped=clipped), state
 
-    def save(state):
-      checkpoint.save(self.dir.ckpt_dir(r), state, self.config, self.spec)
-      self.dir.clear_partial_fit(r)
-
+    save = lambda state: self.fitter.save(self.dir.ckpt_dir(r), state, partial)
     load = lambda _: checkpoint.load(self.dir.ckpt_dir(r), self.spec).state
     return self.phase(r, "fit", work, save, load)[1]
 
@@ -280,20 +219,3 @@ class Experiment:
       video.render_round(self.dir, self.env, r, redraw=False)
     except (RenderError, OSError) as e:
       print(f"warning: round {r}'s videos were not drawn: {e}", flush=True)
-
-
-FINAL_METRICS = ("loss_il", "loss_ib", "loss_ib_head", "kl", "latent_std")
-
-
-def eval_curve(history: list[dict]) -> list[dict]:
-  """The in-fit evaluations of a fit's history: step, success rate, the per-state outcomes, and the fit's
-  time up to then without (`fit_s`) and with (`wall_s`) the evaluations before."""
-  curve, fit_s, eval_s = [], 0.0, 0.0
-  for h in history:
-    fit_s += h.get("chunk_s", 0.0)
-    if "eval_success" in h:
-      outcomes = h["eval_success"]
-      curve.append(dict(step=h["step"], success_rate=sum(outcomes) / len(outcomes), success=outcomes,
-                        fit_s=round(fit_s, 2), wall_s=round(fit_s + eval_s, 2)))  # fmt: skip
-      eval_s += h["eval_s"]
-  return curve

@@ -67,15 +67,13 @@ import functools
 import ml_collections
 
 from soe_jax.envs import registry as env_registry
-from soe_jax.experiment import sections as config_sections
 from soe_jax.experiment.schema import ANY_METHOD_VARIANTS, EXPLORERS, METHODS, PROTOCOLS, VARIANTS
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.explore import sime
 from soe_jax.policies.nets.resnet import CPU_IMAGE_WIDTHS, RESNET18_WIDTHS, SMOKE_IMAGE_WIDTHS
+from soe_jax.train import sections as config_sections
 
 PRESETS = ("smoke", "cpu", "head", "image", "expert_data", "protocol") + tuple(VARIANTS) + METHODS
-# The bypass's KL weight under `cpu` (the paper's, `base_config`'s, is 1e-3).
-CPU_BETA = 1e-5
 # The protocol and the demonstrations under `cpu` (docs/protocol.md's rule, applied in RESULTS.md).
 CPU_PROTOCOL = "sime"
 CPU_STYLE = "varied"
@@ -216,10 +214,8 @@ def apply_presets(
     c.fit.num_steps = cpu_steps
     c.data.num_demos = cpu_demos or c.data.num_demos
     c.rounds.update(num_rounds=1, refit_steps=3000, refit_lr=3e-4, refit_ema="carry")
-    # What "why own successes hurt" adopted (RESULTS.md): the bypass's KL weight 1e-5 (the paper's 1e-3
-    # left SOE's data below the control) and re-fit windows aligned to recorded decisions.
-    # (The oracle arms' scripted episodes were never sampled in chunks: every window of theirs is drawn.)
-    c.policy.bypass.beta = CPU_BETA
+    config_sections.adopted_refit(c)  # (a robot's `cpu` preset takes the same)
+    # The oracle arms' scripted episodes were never sampled in chunks: every window of theirs is drawn.
     c.rounds.aligned_windows = c.rounds.new_data != "expert"
     set_fields(c, PROTOCOLS[CPU_PROTOCOL])
     c.data.demo_style = CPU_STYLE

@@ -29,8 +29,7 @@ from typing import Any
 import ml_collections
 
 from soe_jax.data import episodes, hdf5
-from soe_jax.experiment import runlog, schema, task
-from soe_jax.policies.policy import policy_from_spec
+from soe_jax.experiment import runlog, schema
 from soe_jax.runtime import atomic, configfile, faults
 from soe_jax.runtime.errors import UserError
 from soe_jax.train import checkpoint
@@ -220,18 +219,6 @@ class RunDir:
   # -- a fit in progress -------------------------------------------------------------------------
   def partial_fit_dir(self, r: int) -> str:
     return os.path.join(self.round_dir(r), "fit_partial")
-
-  def save_partial_fit(self, r: int, state, done: int, history: list[dict]) -> None:
-    """Round r's fit after step `done`: its state and progress, saved together (`train.partial`)."""
-    PartialFit(self.partial_fit_dir(r)).save(state, done, history)
-
-  def partial_fit(self, r: int):
-    """(state, done, history) of round r's fit in progress (its newest complete save), or None."""
-    policy = policy_from_spec(self.config.policy, task.spec(self.config))
-    return PartialFit(self.partial_fit_dir(r)).restore(checkpoint.abstract_state(self.config, policy))
-
-  def clear_partial_fit(self, r: int) -> None:
-    PartialFit(self.partial_fit_dir(r)).clear()
 
   # -- what is there ----------------------------------------------------------------------------
   def has_checkpoint(self, r: int) -> bool:

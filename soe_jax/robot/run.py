@@ -6,8 +6,8 @@ A workdir holds `config.json`, `spec.json`, and per round r `rounds/<r>/ckpt` (w
 dimension over the fit's data, which the server's steering reads) and for r >= 1
 `rounds/<r>/data.json` (the recorded dataset and the episodes taken from it). Round r's fit trains on
 the demonstrations and every episode rounds 1..r took, read again from their datasets. A re-fit may
-override the run's `refit` fields and keep only some modes' episodes (`episode_modes`); its fit.json
-records both, with the `refit` fields it used. Everything is
+override the run's re-fit fields (`rounds`, the simulated runs' names) and keep only some modes'
+episodes (`episode_modes`); its fit.json records both, with the `rounds` fields it used. Everything is
 checked before anything is written; a fit stopped midway resumes where it was saved (`fit.checkpoint_every`)
 when the same command runs again, to the same parameters; keys are fold_in(seed, round, stream).
 """
@@ -19,31 +19,30 @@ import json
 import os
 from collections import Counter
 
-import jax
-import jax.numpy as jnp
 import ml_collections
+import numpy as np
 from absl import logging
 
 from soe_jax.analysis.labelled import episode_mode
 from soe_jax.data import spec as spec_lib
-from soe_jax.data.episodes import EpisodeSet, build_buffer
-from soe_jax.experiment import action_box
+from soe_jax.data.episodes import EpisodeSet
 from soe_jax.explore import steering
 from soe_jax.explore.steer import SoeSteer
 from soe_jax.policies import policy as policy_lib
 from soe_jax.policies.agent import Agent
+from soe_jax.robot import config as robot_config
 from soe_jax.robot import dataset as dataset_lib
-from soe_jax.runtime import atomic, interrupt
+from soe_jax.runtime import atomic
 from soe_jax.runtime.errors import UserError
 from soe_jax.serve.modes import MODES
-from soe_jax.train import checkpoint, normalization, train_state
-from soe_jax.train import fit as fit_lib
+from soe_jax.train import checkpoint, normalization
+from soe_jax.train import round as round_lib
 from soe_jax.train.partial import PartialFit
 
 SELECTIONS = ("all_successes", "first_success")
 REFIT_MODES = ("continue", "scratch")
 EPISODE_MODES = (*MODES, "recorded")  # a recorded episode's mode (`analysis.labelled.episode_mode`)
-_INIT, _FIT, _SNR = 0, 1, 2  # key streams
+_SNR = 2  # the key stream of the latent's SNR (the fit's: `round.FIT`)
 SNR_WINDOWS = SoeSteer.snr_windows  # observation histories the stored SNR is measured over (`soe_steer`'s)
 
 
@@ -67,10 +66,10 @@ def _check(config: ml_collections.ConfigDict) -> None:
     problems.append("dataset.path is empty: the LeRobotDataset of the demonstrations")
   elif not os.path.isdir(config.dataset.path):
     problems.append(f"dataset.path {config.dataset.path!r} is not a directory")
-  if config.refit.select not in SELECTIONS:
-    problems.append(f"unknown refit.select {config.refit.select!r}; known: {', '.join(SELECTIONS)}")
-  if config.refit.mode not in REFIT_MODES:
-    problems.append(f"unknown refit.mode {config.refit.mode!r}; known: {', '.join(REFIT_MODES)}")
+  if config.rounds.select not in SELECTIONS:
+    problems.append(f"unknown rounds.select {config.rounds.select!r}; known: {', '.join(SELECTIONS)}")
+  if config.rounds.refit not in REFIT_MODES:
+    problems.append(f"unknown rounds.refit {config.rounds.refit!r}; known: {', '.join(REFIT_MODES)}")
   if problems:
     raise UserError("; ".join(problems))
 
@@ -99,56 +98,27 @@ def _prepared(config: ml_collections.ConfigDict, progress: bool):
   return config, spec, policy, demos
 
 
-def _fit(config, spec, policy, sets, r: int, workdir: str, norm, init_state, progress: bool, paths: dict,
+def _fit(config, spec, policy, sets, r: int, workdir: str, norm, init_state, progress: bool,
          extra: dict | None = None) -> dict:  # fmt: skip
-  """Round r's fit on `sets` (read from the datasets `paths` {source: path}), saved to rounds/<r>/ckpt
-  with its record (and `extra` in it) -> the record."""
+  """Round r's fit on `sets` (`train.round`, the simulated runs' fit: `init_state` None starts from
+  fresh parameters), saved to rounds/<r>/ckpt with its record (and `extra` in it) -> the record."""
   rdir = _round_dir(workdir, r)
   record_path = os.path.join(rdir, "fit.json")
   if os.path.exists(record_path):
     return atomic.read_json(record_path)
-  root = jax.random.fold_in(jax.random.key(int(config.seed)), r)
-  if init_state is None or config.refit.mode == "scratch":
-    steps, lr = int(config.fit.num_steps), float(config.fit.lr)
-    params = policy.init(jax.random.fold_in(root, _INIT))
-  else:
-    steps, lr = int(config.refit.steps), float(config.refit.lr or config.fit.lr)
-    params = init_state.params
-  tx = train_state.make_optimizer(config.fit, steps, lr)
-  state = jax.tree.map(jnp.copy, train_state.create(params, tx, norm, ema=config.fit.ema))
-  if init_state is not None and config.refit.mode == "continue" and config.refit.ema == "carry":
-    state = state.replace(ema_params=jax.tree.map(jnp.copy, init_state.ema_params), step=jnp.copy(init_state.step))
+  fitter = round_lib.RoundFit(policy, config, spec)
   partial = PartialFit(os.path.join(rdir, "fit_partial"))
-  start, history = 0, []
-  if (saved := partial.restore(checkpoint.abstract_state(config, policy))) is not None:
-    state, start, history = saved
-  every = max(1, int(config.fit.checkpoint_every) // int(config.fit.chunk_size)) if config.fit.checkpoint_every else 0
-  # Never clipped silently: a target outside the box is an error (a stated box), or counted (the data's range).
-  clipped = action_box.check(
-    sets, norm, spec, config.policy.action_range, lambda s: f"round {s.source}'s dataset", policy
-  )
-  buf = build_buffer(config, policy, sets)
-  with interrupt.deferred("stopping: saving the fit after the chunk in progress (again to stop now)") as stop:
-
-    def on_chunk(state, done, history):
-      if stop or (every and done < steps and (done // int(config.fit.chunk_size)) % every == 0):
-        partial.save(state, done, history)
-      if stop:
-        raise KeyboardInterrupt
-
-    state, history = fit_lib.fit(policy, tx, state, buf, jax.random.fold_in(root, _FIT), steps, config.fit, progress,
-                                 f"round {r} fit", start, history, on_chunk)  # fmt: skip
-  checkpoint.save(os.path.join(rdir, "ckpt"), state, config, spec)
-  partial.clear()
+  buf, clipped = fitter.data(sets, norm, lambda s: f"round {s.source}'s dataset")
+  state, info = fitter.fit(buf, norm, r, partial, init_state, progress=progress)
+  fitter.save(os.path.join(rdir, "ckpt"), state, partial)
   snr = None
   if policy.bypass:  # the latent's SNR over this fit's data: the server's steering dimensions
     agent = Agent.from_state(policy, state)
-    snr = [round(float(x), 3) for x in steering.buffer_snr(agent, buf, jax.random.fold_in(root, _SNR), SNR_WINDOWS)]
+    key = round_lib.round_key(config.seed, r, _SNR)
+    snr = [round(float(x), 3) for x in steering.buffer_snr(agent, buf, key, SNR_WINDOWS)]
   record = dict(
     round=r,
-    steps=steps,
-    final_loss=history[-1]["loss"],
-    loss_curve=[h["loss"] for h in history],
+    **info,
     num_episodes=sum(len(s.episodes) for s in sets),
     episodes_by_source={str(s.source): len(s.episodes) for s in sets},
     actions_clipped=clipped,
@@ -175,7 +145,7 @@ def fit(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) 
     norm = normalization.fit_normalizer(policy, spec, demos, config.policy.action_range, margin)
   except ValueError as e:
     raise UserError(str(e)) from None
-  return _fit(config, spec, policy, [EpisodeSet(demos, 0)], 0, workdir, norm, None, progress, {0: config.dataset.path})
+  return _fit(config, spec, policy, [EpisodeSet(demos, 0)], 0, workdir, norm, None, progress)
 
 
 def last_round(workdir: str) -> int:
@@ -212,7 +182,7 @@ def saved_config(workdir: str) -> ml_collections.ConfigDict:
   saved = os.path.join(workdir, "config.json")
   if not os.path.exists(saved):
     raise UserError(f"{workdir} has no fitted robot policy ({saved} is missing): run `fit` first")
-  return ml_collections.ConfigDict(atomic.read_json(saved))
+  return ml_collections.ConfigDict(robot_config.upgrade(atomic.read_json(saved)))
 
 
 def by_mode(episodes: list[dict], modes: list[str] | None, root: str) -> list[dict]:
@@ -241,15 +211,17 @@ def by_mode(episodes: list[dict], modes: list[str] | None, root: str) -> list[di
 def refit(workdir: str, recorded: str, progress: bool = True, mode: str | None = None,
           overrides: dict | None = None, episode_modes: list[str] | None = None) -> dict:  # fmt: skip
   """The next round of the robot run in `workdir`: the episodes of the LeRobotDataset `recorded`
-  (those of `episode_modes`, default all) labelled successful (`refit.select`) added to the data,
-  re-fitted (`refit.mode`, or `mode`) -> the round's record. `overrides` {"refit.<field>": value}
+  (those of `episode_modes`, default all) labelled successful (`rounds.select`) added to the data,
+  re-fitted (`rounds.refit`, or `mode`) -> the round's record. `overrides` {"rounds.<field>": value}
   change the run's re-fit fields for this round (recorded in its fit.json). Running it again after
-  an interruption continues the same round, with the same overrides."""
+  an interruption continues the same round, with the same overrides. Windows aligned to decisions
+  (`rounds.aligned_windows`) need every recorded episode's decisions (`aligned_decisions`); without
+  them the re-fit draws every window, with a warning."""
   config = saved_config(workdir)
-  overrides = dict(overrides or {})
+  overrides = {robot_config.upgrade_field(k): v for k, v in (overrides or {}).items()}
   if mode is not None:
-    overrides["refit.mode"] = mode
-  fields = sorted(f"refit.{k}" for k in config.refit)
+    overrides["rounds.refit"] = mode
+  fields = sorted(f"rounds.{k}" for k in config.rounds)
   for name in overrides:
     if name not in fields:
       raise UserError(f"{name}: not a re-fit field of the run; its re-fit fields: {', '.join(fields)}")
@@ -270,27 +242,48 @@ def refit(workdir: str, recorded: str, progress: bool = True, mode: str | None =
     if under_way["dataset"] != recorded:
       raise UserError(f"{workdir}: round {r} is under way with {under_way['dataset']}; finish it first")
     was = {k: under_way.get(k, {} if k == "overrides" else None) for k in choices}
+    was["overrides"] = {robot_config.upgrade_field(k): v for k, v in was["overrides"].items()}
     if was != choices:
       raise UserError(f"{workdir}: round {r} is under way with {was}; finish it with the same (now {choices})")
   _, demos = dataset_lib.read(config.dataset.path, config.dataset, progress=progress)
-  sets, paths = [EpisodeSet(demos, 0)], {0: config.dataset.path, r: recorded}
+  sets = [EpisodeSet(demos, 0)]
   for q in range(1, r):
     taken = atomic.read_json(os.path.join(_round_dir(workdir, q), "data.json"))
     _, eps = dataset_lib.read(taken["dataset"], config.dataset, taken["episodes"], progress)
     sets.append(EpisodeSet(eps, q))
-    paths[q] = taken["dataset"]
   rec_spec, episodes = dataset_lib.read(recorded, config.dataset, progress=progress)
   if rec_spec.to_dict() != spec.to_dict():
     raise UserError(f"{recorded}: its spec differs from the policy's ({os.path.join(workdir, spec_lib.SPEC_FILE)})")
-  taken = select(by_mode(episodes, episode_modes, recorded), config.refit.select, recorded)
+  taken = select(by_mode(episodes, episode_modes, recorded), config.rounds.select, recorded)
   if not taken:
     raise UserError(f"{recorded}: none of its {len(episodes)} episodes is labelled successful; nothing to add")
   loaded = checkpoint.load(os.path.join(_round_dir(workdir, last), "ckpt"))
   os.makedirs(rdir, exist_ok=True)
-  atomic.write_json(data_path, dict(dataset=recorded, fingerprint=_fingerprint(recorded), select=config.refit.select,
+  atomic.write_json(data_path, dict(dataset=recorded, fingerprint=_fingerprint(recorded), select=config.rounds.select,
                                     recorded=len(episodes), episodes=[ep["episode_index"] for ep in taken],
                                     **choices))  # fmt: skip
   sets.append(EpisodeSet(taken, r))
+  if config.rounds.aligned_windows and (without := _without_decisions(sets[1:], loaded.policy.n_action_steps)):
+    logging.warning("%d recorded episodes (%s) have no decisions every %d steps from the first (the `decision` "
+                    "feature): this re-fit draws every window, not only those at decisions",
+                    len(without), ", ".join(without[:3]) + (", ..." if len(without) > 3 else ""),
+                    loaded.policy.n_action_steps)  # fmt: skip
+    config.rounds.aligned_windows = False
   norm = loaded.state.normalizer  # the statistics stay those of the demonstrations
-  extra = dict(choices, refit=config.refit.to_dict())
-  return _fit(config, spec, loaded.policy, sets, r, workdir, norm, loaded.state, progress, paths, extra)
+  extra = dict(choices, rounds=config.rounds.to_dict())
+  init_state = loaded.state if config.rounds.refit == "continue" else None
+  return _fit(config, spec, loaded.policy, sets, r, workdir, norm, init_state, progress, extra)
+
+
+def _without_decisions(sets: list[EpisodeSet], n_action_steps: int) -> list[str]:
+  """The recorded episodes whose windows cannot be aligned to decisions ('round 1 episode 4', ...):
+  those without the recorder's `decision` feature, or whose decisions are not every `n_action_steps`
+  steps from the first (a client that executed part of a chunk)."""
+  out = []
+  for s in sets:
+    for ep in s.episodes:
+      decision = ep["columns"].get("decision")
+      every = np.arange(len(ep["actions"])) % n_action_steps == 0
+      if decision is None or not np.array_equal(np.asarray(decision), every.astype(np.asarray(decision).dtype)):
+        out.append(f"round {s.source} episode {ep['episode_index']}")
+  return out

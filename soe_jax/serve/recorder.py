@@ -14,7 +14,9 @@ successful episode's last frame, and the columns `mode` (index into `modes.MODES
 observation's timestamp), `start_state` (the attempt group a person gave, -1 when none), which
 `refit.select=first_success` and `python -m soe_jax table1` group tries by, and `request_key` (seed,
 instance, episode id, request: `session.request_key` of them is the key the frame's action was
-sampled with; -1s in episodes recorded before the column existed).
+sampled with; -1s in episodes recorded before the column existed), and `decision` (1 on the first frame
+of each reply, the step the policy decided at, 0 on the others; -1 in episodes recorded before the
+column existed), which a re-fit's windows aligned to decisions need (`rounds.aligned_windows`).
 """
 
 from __future__ import annotations
@@ -52,8 +54,9 @@ class Episode:
 
   def __init__(self, number: int, observation: dict, stamp: float, keep: bool = True):
     self.number, self.keep = number, keep  # keep: hold the frames (a server that records)
-    # (observation, action, robot time, mode, the request's key ids (seed, instance, episode, request))
-    self.frames: list[tuple[dict, np.ndarray, float, int, tuple]] = []
+    # (observation, action, robot time, mode, the request's key ids (seed, instance, episode, request),
+    # whether the action is its reply's first: the policy decided at this frame)
+    self.frames: list[tuple[dict, np.ndarray, float, int, tuple, bool]] = []
     self.current, self.current_time = observation, float(stamp)
     self.pending = None  # (actions (Ta, A), mode index, key ids) of the last reply
     self.start_state = None  # the attempt group, when the robot names it at the end
@@ -77,9 +80,9 @@ class Episode:
     actions, mode, key = self.pending
     if len(observations) > len(actions):
       raise LabelError(f"{len(observations)} observations since the last reply, which sent {len(actions)} actions")
-    for action, obs, stamp in zip(actions, observations, stamps):
+    for i, (action, obs, stamp) in enumerate(zip(actions, observations, stamps)):
       if self.keep:
-        self.frames.append((self.current, action, self.current_time, mode, key))
+        self.frames.append((self.current, action, self.current_time, mode, key, i == 0))
       self.current, self.current_time = obs, float(stamp)
     self.pending = None
 
@@ -100,6 +103,7 @@ class Episode:
         robot_time=np.asarray([f[2] for f in self.frames], np.float64),
         start_state=np.full(t, int(start_state), np.int64),
         request_key=np.asarray([f[4] for f in self.frames], np.int64).reshape(t, 4),
+        decision=np.asarray([f[5] for f in self.frames], np.int64),
       ),
     )
 
@@ -163,6 +167,7 @@ class Recorder:
           columns={k[4:]: z[k] for k in z.files if k.startswith("col/")}))  # fmt: skip
     for ep in episodes:  # (saved before the column existed: every episode's features must match)
       ep["columns"].setdefault("request_key", np.full((len(ep["actions"]), 4), -1, np.int64))
+      ep["columns"].setdefault("decision", np.full(len(ep["actions"]), -1, np.int64))
     fresh = self.dataset + ".new"
     shutil.rmtree(fresh, ignore_errors=True)
     fps = self.spec.control_hz

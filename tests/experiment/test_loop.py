@@ -27,6 +27,7 @@ from soe_jax.experiment.rundir import RunDir
 from soe_jax.runtime.errors import UserError
 from soe_jax.train import checkpoint
 from soe_jax.train import fit as fit_lib
+from soe_jax.train import round as round_lib
 from soe_jax.train.partial import PartialFit
 
 pytestmark = pytest.mark.usefixtures("toy_task")
@@ -80,7 +81,7 @@ def test_resume_gives_the_same_numbers(toy_run, monkeypatch):
   episodes back) to the uninterrupted run's numbers."""
   root, config, workdir = toy_run
   other = str(root / "toy-soe-interrupted")
-  real = phases.Experiment.fit
+  real = round_lib.RoundFit.fit
   calls = []
 
   def fit_then_stop(self, buf, norm, r, *args):
@@ -89,11 +90,11 @@ def test_resume_gives_the_same_numbers(toy_run, monkeypatch):
       raise KeyboardInterrupt
     return real(self, buf, norm, r, *args)
 
-  monkeypatch.setattr(phases.Experiment, "fit", fit_then_stop)
+  monkeypatch.setattr(round_lib.RoundFit, "fit", fit_then_stop)
   with pytest.raises(KeyboardInterrupt):
     loop.run(config, other, progress=False)
   assert calls == [2] and not os.path.exists(os.path.join(other, "rounds", "2", "fit.json"))
-  monkeypatch.setattr(phases.Experiment, "fit", real)
+  monkeypatch.setattr(round_lib.RoundFit, "fit", real)
   loop.run(config, other, progress=False)
   assert _numbers(other) == _numbers(workdir)
   np.testing.assert_array_equal(_evaluated(other, 2), _evaluated(workdir, 2))
@@ -140,7 +141,9 @@ def test_refit_restarts_or_carries_the_ema(toy_run):
     c.rounds.refit_ema = mode
     exp = phases.Experiment(c, RunDir(str(workdir) + "-" + mode, c), progress=False)
     buf = build_buffer(c, exp.policy, [EpisodeSet(run.demonstrations(), 0)])
-    state, _ = exp.fit(buf, base.normalizer, 1, base)
+    state, _ = exp.fitter.fit(
+      buf, base.normalizer, 1, PartialFit(f"{workdir}-{mode}/fit_partial"), base, progress=False
+    )
     steps[mode] = (int(state.step), state.ema_params)
   assert (steps["restart"][0], steps["carry"][0]) == (20, 60)  # carried: the decay goes on from round 0's 40
   leaves = [jax.tree.leaves(steps[m][1]) for m in ("restart", "carry")]
@@ -198,11 +201,11 @@ def test_stopped_fit_resumes_to_the_same_parameters(toy_run, tmp_path, monkeypat
   _, config, workdir = toy_run
   again = toy.get_config("smoke,soe")
   again.rounds.update(num_rounds=0, round0_dir=str(tmp_path / "round0"))
-  real_save, real_chunk_fn = RunDir.save_partial_fit, fit_lib._chunk_fn
+  real_save, real_chunk_fn = PartialFit.save, fit_lib._chunk_fn
   saved = []
 
-  def save(self, r, state, done, history):
-    real_save(self, r, state, done, history)
+  def save(self, state, done, history):
+    real_save(self, state, done, history)
     saved.append(done)
     if stop == "periodic save":
       raise KeyboardInterrupt
@@ -217,7 +220,7 @@ def test_stopped_fit_resumes_to_the_same_parameters(toy_run, tmp_path, monkeypat
 
     return signalled
 
-  monkeypatch.setattr(RunDir, "save_partial_fit", save)
+  monkeypatch.setattr(PartialFit, "save", save)
   if stop != "periodic save":
     again.fit.checkpoint_every = 0
     monkeypatch.setattr(fit_lib, "_chunk_fn", chunk_fn)
@@ -398,7 +401,7 @@ def test_the_sime_protocol_retrains_each_round_from_fresh_parameters(toy_run):
   fit1 = json.load(open(run.phase_path(1, "fit")))
   assert fit1["steps"] == config.fit.num_steps  # round 0's recipe, not refit_steps
   exp = phases.Experiment(config, run, progress=False)
-  fresh = exp.policy.init(jax.random.fold_in(exp.key(1, phases._FIT), 0))
+  fresh = exp.policy.init(jax.random.fold_in(exp.key(1, round_lib.FIT), 0))
   round0, round1 = (checkpoint.load(run.ckpt_dir(r)).state.params for r in (0, 1))
   chex.assert_trees_all_close(round1, fresh, atol=1e-12)
   assert max(float(np.abs(a - b).max()) for a, b in zip(jax.tree.leaves(round0), jax.tree.leaves(round1))) > 1e-3

@@ -9,10 +9,11 @@ import pytest
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 RUN = """
 import sys
-from soe_jax.experiment import loop, phases
+from soe_jax.experiment import loop
+from soe_jax.train import round as round_lib
 from tests.experiment import toy
-fits, fit = [], phases.Experiment.fit
-phases.Experiment.fit = lambda self, *a, **k: fits.append(1) or fit(self, *a, **k)
+fits, fit = [], round_lib.RoundFit.fit
+round_lib.RoundFit.fit = lambda self, *a, **k: fits.append(1) or fit(self, *a, **k)
 config = toy.get_config("smoke," + sys.argv[1])
 config.rounds.update(num_rounds=0, round0_dir=sys.argv[2])
 with toy.registered():

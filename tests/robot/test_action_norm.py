@@ -12,13 +12,12 @@ import pytest
 
 from soe_jax.data import lerobot
 from soe_jax.data.episodes import EpisodeSet
-from soe_jax.experiment import action_box
 from soe_jax.policies.policy import policy_from_spec
 from soe_jax.robot import config as robot_config
 from soe_jax.robot import dataset as dataset_lib
 from soe_jax.robot import run
 from soe_jax.runtime.errors import UserError
-from soe_jax.train import checkpoint, normalization
+from soe_jax.train import action_box, checkpoint, normalization
 from tests.robot.synthetic import AXIS_ANGLE_ARM, axis_angle_episodes
 
 

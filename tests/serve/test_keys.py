@@ -1,5 +1,6 @@
 """Exploration keys never repeat: two connections' SOE episodes from the same start differ, so do those of
-a server restarted with the same seed, and the key each recorded frame names samples its chunk again."""
+a server restarted with the same seed, and the key each recorded frame names samples its chunk again;
+the recording marks the frames the policy decided at."""
 
 import numpy as np
 import pytest
@@ -65,6 +66,8 @@ def test_a_recorded_key_samples_the_recorded_chunk_again(served):
   assert keys.shape == (2 * ta, 4)
   assert (keys[:, :2] == [server.keys.seed, server.keys.instance]).all()
   assert (keys[:ta, 3] == 0).all() and (keys[ta:, 3] == 1).all() and len(set(keys[:, 2])) == 1
+  # Each reply's first frame is a decision (what a re-fit's windows aligned to decisions start at).
+  np.testing.assert_array_equal(ep["columns"]["decision"], np.arange(2 * ta) % ta == 0)
   np.testing.assert_array_equal(ep["actions"], np.concatenate([reply["actions"], reply2["actions"]]))
   # From the recording alone: the first frame's observation and its key give the first chunk again.
   x = session.policy_input(spec, {k: v[0] for k, v in ep["obs"].items()})

@@ -7,9 +7,9 @@ import pytest
 from soe_jax.data.episodes import EpisodeSet
 from soe_jax.data.spec import PolicySpec
 from soe_jax.envs import registry
-from soe_jax.experiment import action_box
 from soe_jax.policies import normalizer
 from soe_jax.runtime.errors import UserError
+from soe_jax.train import action_box
 
 
 def _setup():
