@@ -42,7 +42,8 @@ frames decoded with PyAV as lerobot's `decode_video_frames_pyav`) reads such a d
 
 Reading: video frames come from one ffmpeg process per run of adjacent episodes in a file (-ss/-to/-copyts, frame
 times from the showinfo filter), each matched to from_timestamp + timestamp within 1e-4 s; image features are the
-PNG/JPEG bytes in the parquet; both resized with PIL's bilinear filter.
+PNG/JPEG bytes in the parquet; both brought to the size asked for as the server brings a camera to the policy's
+(`images.resize_with_pad`: the aspect ratio kept, black padding).
 
 Codecs: imageio-ffmpeg 0.8.1's ffmpeg (n9.0.2) encodes libx264 (h264), libx265 (hevc), libsvtav1, libaom-av1
 and librav1e (av1), and decodes h264, hevc and av1 (libdav1d), so LeRobot's default AV1 videos read here. Older
@@ -68,6 +69,8 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 from PIL import Image
+
+from soe_jax.data.images import resize_with_pad
 
 CODEBASE_VERSION = "v3.0"
 CHUNKS_SIZE, DATA_FILE_SIZE_IN_MB, VIDEO_FILE_SIZE_IN_MB = 1000, 100, 200
@@ -189,10 +192,8 @@ def _decode(path: str, start: float, stop: float, shape: tuple[int, int], size: 
 
 
 def _resize(img: np.ndarray, size: tuple[int, int] | None) -> np.ndarray:
-  """(H, W, 3) uint8 -> (*size, 3), bilinear (PIL); as is when `size` is None or already its size."""
-  if size is None or img.shape[:2] == tuple(size):
-    return img
-  return np.asarray(Image.fromarray(img).resize((size[1], size[0]), Image.BILINEAR))
+  """(H, W, 3) uint8 -> (*size, 3) (`images.resize_with_pad`); as it is when `size` is None."""
+  return img if size is None else resize_with_pad(img, size)
 
 
 # ---------------------------------------------------------------------------------------------------- stats
@@ -289,6 +290,31 @@ def read_info(root: str) -> dict:
     if ft["dtype"] == "video" and not isinstance(info.get("video_path"), str):
       raise DatasetError(f"{path}: feature {name!r} is a video but `video_path` is {info.get('video_path')!r}")
   return info
+
+
+def read_tasks(root: str) -> list[str]:
+  """The tasks of the dataset at `root` (`meta/tasks.parquet`: task_index and the task, the frame's index, under
+  whatever name pandas gave it), in task_index order; [] where the file is missing."""
+  path = os.path.join(root, "meta", "tasks.parquet")
+  if not os.path.exists(path):
+    return []
+  try:
+    table = pq.read_table(path)
+  except (OSError, pa.ArrowException) as e:
+    raise DatasetError(f"{path}: not a readable parquet file: {e}") from None
+  strings = (pa.types.is_string, pa.types.is_large_string)
+  text = [f.name for f in table.schema if f.name != "task_index" and any(is_(f.type) for is_ in strings)]
+  if "task_index" not in table.schema.names or len(text) != 1:
+    raise DatasetError(f"{path}: columns {table.schema.names}; task_index and one column of task strings expected")
+  return [t for _, t in sorted(zip(table.column("task_index").to_pylist(), table.column(text[0]).to_pylist()))]
+
+
+def description(info: dict, tasks: Sequence[str]) -> dict:
+  """What a policy's spec keeps of the dataset it was fitted on (`spec.PolicySpec.source`), from its `info` and
+  `tasks`: {"robot_type", "tasks", "features": {every observation.* feature and "action": dtype, shape, names}}."""
+  features = {k: {"dtype": f["dtype"], "shape": list(f["shape"]), "names": f.get("names")}
+              for k, f in info["features"].items() if k == "action" or k.startswith("observation.")}  # fmt: skip
+  return dict(robot_type=info.get("robot_type"), tasks=list(tasks), features=features)
 
 
 def _episode_rows(root: str) -> dict[int, dict]:
@@ -428,10 +454,11 @@ def _read_video(root: str, info: dict, key: str, rows: dict, frames: dict, size)
 def read_dataset(root: str, keys: Sequence[str] | None = None, image_size: tuple[int, int] | None = None,
                  episodes: Sequence[int] | None = None, progress: bool = False) -> tuple[dict, list[dict]]:  # fmt: skip
   """The LeRobotDataset v3.0 at `root` -> (info, episodes). Each episode: {"obs": {feature: (T, *shape)} (every
-  `observation.*` feature, or `keys`; low-dim float32, images uint8 (T, H, W, 3) resized to `image_size` (H, W),
-  bilinear), "actions": (T, A) float32, "timestamps": (T,) float64, "success": the last frame's next.success (None
-  without that column), "episode_index", "tasks": [str], "columns": {every other recorded column: (T,) for shape
-  (1,), else (T, *shape)}}. `episodes`: indices to read, in that order (default all)."""
+  `observation.*` feature, or `keys`; low-dim float32, images uint8 (T, H, W, 3) brought to `image_size` (H, W)
+  by `images.resize_with_pad`), "actions": (T, A) float32, "timestamps": (T,) float64, "success": the last
+  frame's next.success (None without that column), "episode_index", "tasks": [str], "columns": {every other
+  recorded column: (T,) for shape (1,), else (T, *shape)}}. `episodes`: indices to read, in that order (default
+  all)."""
   info = read_info(root)
   features, info_path = info["features"], os.path.join(root, "meta", "info.json")
   if "action" not in features:
@@ -570,15 +597,26 @@ def _normalise(episodes: list[dict], fps: int, video_keys, task: str) -> tuple[d
   return spec, arrays, tasks
 
 
-def _feature_info(spec: dict, fps: int, codec: str) -> dict:
-  """info.json's `features` for `spec`, video info as `get_video_info` writes it, then DEFAULT_FEATURES."""
+def _check_names(spec: dict, names: dict) -> None:
+  """`names` {feature: LeRobot's names} against the features: each a feature, a vector's list one name a number."""
+  if unknown := [k for k in names if k not in spec]:
+    raise DatasetError(f"names for {unknown}: no such feature (features: {sorted(spec)})")
+  for k, given in names.items():
+    kind, _, shape = spec[k]
+    if kind == "vector" and isinstance(given, list | tuple) and len(given) != shape[0]:
+      raise DatasetError(f"names of {k}: {len(given)} names for its {shape[0]} numbers")
+
+
+def _feature_info(spec: dict, fps: int, codec: str, names: dict) -> dict:
+  """info.json's `features` for `spec`, video info as `get_video_info` writes it, then DEFAULT_FEATURES; a
+  feature's names those `names` gives, else generated (<name>_<i>, or height, width, channels)."""
   features = {}
   for k, (kind, dtype, shape) in spec.items():
     if kind == "vector":
-      names = None if shape == (1,) else [f"{k.split('.')[-1]}_{i}" for i in range(shape[0])]
-      features[k] = {"dtype": dtype, "shape": list(shape), "names": names}
+      generated = None if shape == (1,) else [f"{k.split('.')[-1]}_{i}" for i in range(shape[0])]
+      features[k] = {"dtype": dtype, "shape": list(shape), "names": names.get(k, generated)}
     else:
-      features[k] = {"dtype": kind, "shape": list(shape), "names": IMAGE_NAMES}
+      features[k] = {"dtype": kind, "shape": list(shape), "names": names.get(k, IMAGE_NAMES)}
       if kind == "video":
         enc, name, _ = _encoder(codec)
         features[k]["info"] = {
@@ -672,8 +710,8 @@ def _write_tasks(path: str, tasks: list[str]) -> None:
 
 
 def _write(tmp: str, spec: dict, arrays: list[dict], ep_tasks: list[str], fps: int, robot_type: str,
-           codec: str) -> dict:  # fmt: skip
-  features = _feature_info(spec, fps, codec)
+           codec: str, names: dict) -> dict:  # fmt: skip
+  features = _feature_info(spec, fps, codec, names)
   tasks = list(dict.fromkeys(ep_tasks))
   ep_rows = [{"episode_index": i, "tasks": [ep_tasks[i]], "length": len(a["action"])} for i, a in enumerate(arrays)]
   index = 0
@@ -733,19 +771,24 @@ def _write_json(path: str, obj) -> None:
 
 
 def write_dataset(root: str, episodes: list[dict], fps: float, robot_type: str = "unknown",
-                  video_keys: Sequence[str] | None = None, codec: str = "h264", task: str = "") -> dict:  # fmt: skip
+                  video_keys: Sequence[str] | None = None, codec: str = "h264", task: str = "",
+                  names: dict | None = None) -> dict:  # fmt: skip
   """Write `episodes` (read_dataset's form: "obs" {observation.*: (T, ...)}, "actions" (T, A), optional "success",
   "timestamps" (default frame_index / fps), "columns" {name: (T,) or (T, D)}, "tasks" [one str], else `task`) as a
   LeRobotDataset v3.0 at `root` -> its info. Every uint8 (T, H, W, 3) observation is a video (`codec` h264, hevc
   or av1, yuv420p), or a PNG image column when `video_keys` leaves it out. next.success is True on the last frame
   of a successful episode only (HIL-SERL's labels; no column without "success"), next.done on the last frame.
-  Everything is checked first; the files go to a temporary directory beside `root`, renamed into place at the end."""
+  `names`: {feature (the action is "action"): its names in info.json} (a vector's: a list of one per number, or
+  LeRobot's older {"motors": [...]}); the others are generated. Everything is checked first; the files go to a
+  temporary directory beside `root`, renamed into place at the end."""
   if not float(fps).is_integer() or fps <= 0:
     raise DatasetError(f"fps {fps}: LeRobot keeps fps as a positive whole number")
   fps = int(fps)
   if os.path.exists(root) and (not os.path.isdir(root) or os.listdir(root)):
     raise DatasetError(f"{root}: exists and is not an empty directory; not overwritten")
   spec, arrays, ep_tasks = _normalise(episodes, fps, None if video_keys is None else list(video_keys), task)
+  names = dict(names or {})
+  _check_names(spec, names)
   if any(kind == "video" for kind, _, _ in spec.values()):
     _encoder(codec)
   parent = os.path.dirname(os.path.abspath(root))
@@ -755,7 +798,7 @@ def write_dataset(root: str, episodes: list[dict], fps: float, robot_type: str =
   os.umask(umask)
   os.chmod(tmp, 0o777 & ~umask)  # mkdtemp's 0700 would become the dataset's
   try:
-    info = _write(tmp, spec, arrays, ep_tasks, fps, robot_type, codec)
+    info = _write(tmp, spec, arrays, ep_tasks, fps, robot_type, codec, names)
     if os.path.isdir(root):
       os.rmdir(root)  # empty (checked above); fails if something was written into it meanwhile
     os.rename(tmp, root)

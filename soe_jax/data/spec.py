@@ -11,7 +11,9 @@ state, so a policy loads without the simulator's task registry; a task fills it
    "action_box": [{"position": [[x, y, z], [x, y, z]]}],   per arm, a part's lowest and highest values
    "poses": [{"position": "robot0_eef_pos", "orientation": "robot0_eef_quat", "quat_order": "xyzw"}],
    "action_norm": [{"gripper": "range"}],   per arm, how a part is normalised (default: position range)
-   "robot_rotations": [{"part": "axis_angle", "convention": "rotvec", "degrees": false}]}
+   "robot_rotations": [{"part": "axis_angle", "convention": "rotvec", "degrees": false}],
+   "source": {"robot_type": "so101", "tasks": ["pick the cube"],
+              "features": {"observation.state": {"dtype": "float32", "shape": [6], "names": [...]}, ...}}}
 
 The low-dimensional observation keys are concatenated in the order given (images are not); the action
 is the arms' blocks one after another. `action_box` (optional) bounds the parts it names: the policy's
@@ -24,6 +26,14 @@ they are ("identity"): positions by range, rotation-6d and the simulator's gripp
 (optional, `data.rotations`) says per arm which rotation part of the robot's own action, in which
 convention, the policy's rotation-6d was converted from (None: none): the robot's recordings hold that
 part, and the server's replies convert back to it (`to_robot`).
+
+`source` (optional) describes the LeRobotDataset the policy was fitted on, as its `meta/info.json` and
+`meta/tasks.parquet` say: its `robot_type`, its tasks and its `observation.*` and `action` features
+(dtype, shape, names), cameras the policy does not read included. A recording of the served policy
+takes its robot type, task, feature names and other cameras from it (`serve/recorder.py`). It is saved
+with the spec but is no part of what the policy reads and writes: `to_dict` (the interface, which the
+server's metadata sends and a re-fit compares a recording's spec by) leaves it out, and two specs
+compare equal whatever their sources.
 """
 
 from __future__ import annotations
@@ -51,6 +61,7 @@ class PolicySpec:
   poses: list | None = None  # per arm: {"position": key, "orientation": key, "quat_order": "xyzw" | "wxyz"}
   action_norm: list | None = None  # per arm: {part: "range" | "identity"} (default: position range)
   robot_rotations: list | None = None  # per arm: a robot's rotation convention (`data.rotations`) or None
+  source: dict | None = dataclasses.field(default=None, compare=False)  # the fitted dataset's description
 
   def __post_init__(self):
     if self.action_frame not in ACTION_FRAMES:
@@ -159,7 +170,9 @@ class PolicySpec:
     return out
 
   def to_dict(self) -> dict:
+    """The interface: every field but `source`."""
     d = dataclasses.asdict(self)
+    del d["source"]
     if d["robot_rotations"] is None:  # (a spec saved before the field existed reads the same)
       del d["robot_rotations"]
     return d
@@ -178,12 +191,15 @@ class PolicySpec:
       poses=d.get("poses"),
       action_norm=d.get("action_norm"),
       robot_rotations=d.get("robot_rotations"),
+      source=d.get("source"),
     )
 
 
 def save(directory: str, spec: PolicySpec) -> None:
+  """`spec` as `directory`/spec.json: its interface and its source."""
+  d = spec.to_dict() if spec.source is None else dict(spec.to_dict(), source=spec.source)
   with open(os.path.join(directory, SPEC_FILE), "w") as f:
-    json.dump(spec.to_dict(), f, indent=2)
+    json.dump(d, f, indent=2)
 
 
 def load(directory: str) -> PolicySpec | None:

@@ -8,9 +8,13 @@ part normalised by its range or left as it is, as `dataset.normalize` says per p
 name: by range). With `dataset.rotation.to_6d`, each arm's axis-angle, quaternion or Euler part is
 read as rotation-6d in the convention `dataset.rotation` states (`data.rotations`); the spec keeps
 the robot's convention (`robot_rotations`), so the server replies in it and the recordings hold it.
+The spec's `source` describes the dataset (`lerobot.description`: its robot type, tasks and
+features), which a recording of the served policy takes its names from.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import ml_collections
 import numpy as np
@@ -64,9 +68,10 @@ def robot_rotations(dataset: ml_collections.ConfigDict, arms: list) -> list | No
   return out
 
 
-def spec_from_info(info: dict, dataset: ml_collections.ConfigDict, root: str = "the dataset") -> PolicySpec:
-  """The spec of a policy for the dataset whose `meta/info.json` is `info`, under the robot config's
-  `dataset` section (UserError naming what does not fit)."""
+def spec_from_info(info: dict, dataset: ml_collections.ConfigDict, root: str = "the dataset",
+                   tasks: Sequence[str] = ()) -> PolicySpec:  # fmt: skip
+  """The spec of a policy for the dataset whose `meta/info.json` is `info` (and tasks `tasks`), under the
+  robot config's `dataset` section (UserError naming what does not fit)."""
   features = info.get("features", {})
   keys = list(dataset.observations) or [k for k in features if k.startswith("observation.")]
   missing = [k for k in keys + ["action"] if k not in features]
@@ -101,15 +106,16 @@ def spec_from_info(info: dict, dataset: ml_collections.ConfigDict, root: str = "
       poses=_plain(dataset.poses) or None,
       action_norm=action_norm(dataset, policy_arms),
       robot_rotations=convs,
+      source=lerobot.description(info, tasks),
     )
   except ValueError as e:
     raise UserError(f"{root}: {e}") from None
 
 
 def spec_of(root: str, dataset: ml_collections.ConfigDict) -> PolicySpec:
-  """The spec of the LeRobotDataset at `root` from its info alone (nothing of its episodes read)."""
+  """The spec of the LeRobotDataset at `root` from its info and tasks (nothing of its episodes read)."""
   try:
-    return spec_from_info(lerobot.read_info(root), dataset, root)
+    return spec_from_info(lerobot.read_info(root), dataset, root, lerobot.read_tasks(root))
   except lerobot.DatasetError as e:
     raise UserError(str(e)) from None
 

@@ -389,3 +389,30 @@ def test_reads_what_lerobot_writes_now(tmp_path):
   )
   assert r.returncode == 0, r.stderr[-2000:]
   _check_fixture(_load_fixture_module(), lerobot.read_dataset(out)[1])
+
+
+def test_resize_at_read_time_keeps_the_aspect_ratio(video_dataset):
+  """Read at another aspect ratio than the cameras', a frame is padded as the server pads a camera."""
+  from soe_jax.data.images import resize_with_pad
+
+  root, eps = video_dataset
+  (b,) = lerobot.read_dataset(root, keys=[WRIST], image_size=(84, 84), episodes=[1])[1]
+  np.testing.assert_array_equal(b["obs"][WRIST], resize_with_pad(eps[1]["obs"][WRIST], (84, 84)))  # PNG: exact
+  assert not b["obs"][WRIST][:, :10].any() and b["obs"][WRIST][:, 10:73].any()  # 108 x 144 as 63 x 84, centred
+
+
+def test_tasks_and_feature_names(video_dataset, tmp_path):
+  root, _ = video_dataset
+  assert lerobot.read_tasks(root) == ["pick the cube"]
+  fixture = _load_fixture_module()
+  assert lerobot.read_tasks(os.path.join(FIXTURES, "lerobot_v3_tiny")) == [fixture.TASK]  # pandas' unnamed index
+  eps = _episodes(lengths=(3,), cameras=False)
+  names = {STATE: [f"joint{i}.pos" for i in range(6)], "action": {"motors": [f"m{i}" for i in range(10)]}}
+  info = lerobot.write_dataset(str(tmp_path / "named"), eps, fps=10, names=names)
+  assert info["features"][STATE]["names"] == names[STATE] and info["features"]["action"]["names"] == names["action"]
+  assert info["features"]["observation.gripper"]["names"] is None  # not given: generated
+  for bad, message in [({STATE: ["a", "b"]}, "names of observation.state: 2 names for its 6 numbers"),
+                       ({"observation.elbow": ["a"]}, r"names for \['observation.elbow'\]: no such feature")]:  # fmt: skip
+    with pytest.raises(DatasetError, match=message):
+      lerobot.write_dataset(str(tmp_path / "bad"), eps, fps=10, names=bad)
+  assert sorted(os.listdir(tmp_path)) == ["named"]
