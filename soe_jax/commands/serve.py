@@ -37,7 +37,9 @@ FLAGS.list("origin", [], "Browser origins allowed to connect (none by default; r
 FLAGS.integer("max_message_mb", 16, "Largest frame accepted, in MiB.", lower_bound=1)
 FLAGS.string("mode", "base", "The mode of requests that name none: base, soe, sime or steer.")
 FLAGS.string("record", None, "Write the labelled episodes under this directory (DIR/lerobot); none: not recording.")
-FLAGS.string("task", "", "The task's description, written with each recorded episode.")
+FLAGS.string(
+  "task", "", "The task's description, written with each recorded episode (default: the fitted dataset's only task)."
+)
 FLAGS.integer(
   "page_port", None, "The page's port (default --port + 1, any free one with --port=0; -1: no page).", lower_bound=-1
 )

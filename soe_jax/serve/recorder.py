@@ -17,6 +17,14 @@ instance, episode id, request: `session.request_key` of them is the key the fram
 sampled with; -1s in episodes recorded before the column existed), and `decision` (1 on the first frame
 of each reply, the step the policy decided at, 0 on the others; -1 in episodes recorded before the
 column existed), which a re-fit's windows aligned to decisions need (`rounds.aligned_windows`).
+
+Cameras and names: the policy's cameras are kept as the policy read them (at its size), and each other
+camera of the dataset the policy was fitted on (`spec.source`) as the robot sent it, when the robot sent
+it with every observation of the episode (every episode of a recording holds the same cameras, of one
+size each); the dataset's robot type, its feature names and its task (when it has one; `task` replaces
+it) are written with them, so the recording reads like the dataset it continues. A camera the fitted
+dataset lacks is shown on the page and not recorded: a re-fit reading every `observation.*` feature
+would find a feature the policy's spec does not have.
 """
 
 from __future__ import annotations
@@ -40,6 +48,10 @@ class LabelError(ValueError):
   """A label the recorder refuses (one line); nothing was written."""
 
 
+class CameraError(LabelError):
+  """An episode whose cameras cannot join the recording (one line); it is not written."""
+
+
 def check_start_state(start_state) -> int:
   """The attempt group a person gave (-1 for none)."""
   if start_state is None:
@@ -49,11 +61,21 @@ def check_start_state(start_state) -> int:
   return int(start_state)
 
 
-class Episode:
-  """One connection's episode as the server saw it."""
+def kept_keys(spec: PolicySpec) -> tuple[str, ...]:
+  """The observation keys a recording keeps: the policy's, then the other cameras of the dataset it was
+  fitted on (`spec.source`)."""
+  features = (spec.source or {}).get("features", {})
+  cameras = [k for k, f in features.items() if f.get("dtype") in ("video", "image") and k not in spec.observations]
+  return (*spec.observations, *cameras)
 
-  def __init__(self, number: int, observation: dict, stamp: float, keep: bool = True):
+
+class Episode:
+  """One connection's episode as the server saw it: of each observation, the keys `keys` (None: all)."""
+
+  def __init__(self, number: int, observation: dict, stamp: float, keep: bool = True, keys=None):
     self.number, self.keep = number, keep  # keep: hold the frames (a server that records)
+    self.keys = None if keys is None else tuple(keys)
+    observation = self._kept(observation)
     # (observation, action, robot time, mode, the request's key ids (seed, instance, episode, request),
     # whether the action is its reply's first: the policy decided at this frame)
     self.frames: list[tuple[dict, np.ndarray, float, int, tuple, bool]] = []
@@ -61,6 +83,9 @@ class Episode:
     self.pending = None  # (actions (Ta, A), mode index, key ids) of the last reply
     self.start_state = None  # the attempt group, when the robot names it at the end
     self.gaps: str | None = None  # why the frames are not every step's, if they are not
+
+  def _kept(self, observation: dict) -> dict:
+    return observation if self.keys is None else {k: observation[k] for k in self.keys if k in observation}
 
   def sent(self, actions: np.ndarray, mode: str, key: tuple = NO_KEY) -> None:
     self.pending = (np.asarray(actions, np.float32), MODES.index(mode), tuple(key))
@@ -83,7 +108,7 @@ class Episode:
     for i, (action, obs, stamp) in enumerate(zip(actions, observations, stamps)):
       if self.keep:
         self.frames.append((self.current, action, self.current_time, mode, key, i == 0))
-      self.current, self.current_time = obs, float(stamp)
+      self.current, self.current_time = self._kept(obs), float(stamp)
     self.pending = None
 
   def arrays(self, spec: PolicySpec, success: bool, start_state: int) -> dict:
@@ -94,6 +119,14 @@ class Episode:
       raise LabelError(f"episode {self.number} has no executed step (send the observations after its actions)")
     t = len(self.frames)
     obs = {k: np.stack([f[0][k] for f in self.frames]) for k in spec.observations}
+    for k in kept_keys(spec)[len(spec.observations) :]:
+      images = [f[0][k] for f in self.frames if k in f[0]]
+      if images and (len(images) < t or len({x.shape for x in images}) > 1):
+        shapes = sorted({tuple(x.shape) for x in images})
+        raise CameraError(f"camera {k!r} came with {len(images)} of its {t} observations, of shapes {shapes}: send it "
+                          "with every observation at one size, or never")  # fmt: skip
+      if images:
+        obs[k] = np.stack(images)
     return dict(
       obs=obs,
       actions=np.stack([f[1] for f in self.frames]),
@@ -112,7 +145,13 @@ class Recorder:
   """Labelled episodes of every connection of one server, saved under `directory`."""
 
   def __init__(self, directory: str, spec: PolicySpec, task: str = "", codec: str = "h264"):
-    self.directory, self.spec, self.task, self.codec = os.path.abspath(directory), spec, task, codec
+    """`task`: the episodes' task ("": the fitted dataset's, where it has one task)."""
+    source = spec.source or {}
+    tasks = source.get("tasks") or []
+    self.task = task or (tasks[0] if len(tasks) == 1 else "")
+    self.robot_type = source.get("robot_type") or "unknown"
+    self.names = {k: f["names"] for k, f in source.get("features", {}).items() if f.get("names") is not None}
+    self.directory, self.spec, self.codec = os.path.abspath(directory), spec, codec
     if bad := [k for k in spec.observations if not k.startswith("observation.")]:
       raise LabelError(f"the policy's observations {bad} are not LeRobot features (observation.<name>): record "
                        "a policy fitted with `fit` on a LeRobotDataset")  # fmt: skip
@@ -121,6 +160,7 @@ class Recorder:
     for stale in glob.glob(os.path.join(self.directory, "episodes", ".*.tmp*")):
       os.remove(stale)  # a save cut midway: its episode was never labelled written
     self.saved = len(self._episode_files())
+    self.cameras = self._cameras(self._episode_files()[0]) if self.saved else None  # the recording's other cameras
 
   @property
   def dataset(self) -> str:
@@ -128,6 +168,11 @@ class Recorder:
 
   def _episode_files(self) -> list[str]:
     return sorted(glob.glob(os.path.join(self.directory, "episodes", "*.npz")))
+
+  def _cameras(self, path: str) -> dict:
+    """{camera: frame shape} of the cameras beyond the policy's in the saved episode at `path`."""
+    with np.load(path) as z:
+      return {k[4:]: z[k].shape[1:] for k in z.files if k.startswith("obs/") and k[4:] not in self.spec.observations}
 
   def save(self, episode: Episode, label: str, start_state=None) -> dict:
     """Write `episode` with `label` (LABELS) -> {"label", "written", "dataset_episode" (or None)}."""
@@ -139,8 +184,15 @@ class Recorder:
       return dict(label=label, written=False, dataset_episode=None,
                   reason=f"it has gaps ({episode.gaps}): send the observations taken after each executed action")  # fmt: skip
     state = check_start_state(start_state)
-    arrays = episode.arrays(self.spec, label == "success", int(state))
+    try:
+      arrays = episode.arrays(self.spec, label == "success", int(state))
+    except CameraError as e:
+      return dict(label=label, written=False, dataset_episode=None, reason=str(e))
+    cameras = {k: v.shape[1:] for k, v in arrays["obs"].items() if k not in self.spec.observations}
     with self.lock:
+      if self.cameras is not None and cameras != self.cameras:
+        return dict(label=label, written=False, dataset_episode=None,
+                    reason=f"its other cameras {_shapes(cameras)} are not the recording's {_shapes(self.cameras)}")  # fmt: skip
       index = self.saved
       path = os.path.join(self.directory, "episodes", f"{index:06d}.npz")
       fd, tmp = tempfile.mkstemp(prefix=".episode.tmp", dir=os.path.dirname(path))
@@ -151,7 +203,7 @@ class Recorder:
         f.flush()
         os.fsync(f.fileno())
       os.replace(tmp, path)
-      self.saved = index + 1
+      self.saved, self.cameras = index + 1, cameras
       self._write_dataset()
     return dict(label=label, written=True, dataset_episode=index)
 
@@ -170,13 +222,20 @@ class Recorder:
       ep["columns"].setdefault("decision", np.full(len(ep["actions"]), -1, np.int64))
     fresh = self.dataset + ".new"
     shutil.rmtree(fresh, ignore_errors=True)
-    fps = self.spec.control_hz
-    video = [k for k in self.spec.image_keys]
-    lerobot.write_dataset(fresh, episodes, fps, robot_type="soe_jax-served", video_keys=video, codec=self.codec,
-                          task=self.task)  # fmt: skip
+    stored = {k: f.get("dtype") for k, f in (self.spec.source or {}).get("features", {}).items()}
+    # cameras as videos, but where the fitted dataset stores them as images, or yuv420p cannot (an odd side)
+    video = [k for k, v in episodes[0]["obs"].items() if v.ndim == 4 and stored.get(k) != "image" and v.shape[1] % 2 == 0
+             and v.shape[2] % 2 == 0]  # fmt: skip
+    names = {k: n for k, n in self.names.items() if k == "action" or k in episodes[0]["obs"]}
+    lerobot.write_dataset(fresh, episodes, self.spec.control_hz, robot_type=self.robot_type, video_keys=video,
+                          codec=self.codec, task=self.task, names=names)  # fmt: skip
     old = self.dataset + ".old"
     shutil.rmtree(old, ignore_errors=True)
     if os.path.exists(self.dataset):
       os.rename(self.dataset, old)
     os.rename(fresh, self.dataset)
     shutil.rmtree(old, ignore_errors=True)
+
+
+def _shapes(cameras: dict) -> str:
+  return "{" + ", ".join(f"{k}: {' x '.join(map(str, shape))}" for k, shape in sorted(cameras.items())) + "}"

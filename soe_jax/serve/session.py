@@ -3,15 +3,18 @@ policy's spec, keep the connection's observation history, pick a chunk in the re
 with its executed actions, and record the episode for a person's label.
 
 A request is the robot's observation dict in raw units: every key of the spec (`data.spec.PolicySpec`:
-low-dimensional vectors as float arrays of their shapes, camera images as (H, W, 3) uint8), either one
-observation or, with a leading axis of k, the k observations taken since the previous request (one
-after each executed action, so the history holds consecutive steps and the recorder every step; a
-client that sends one observation without the axis after a chunk of several actions, as openpi's
-`ActionChunkBroker` does, gives the policy a history of observations a chunk apart, and its episode
-cannot be recorded); optionally `timestamp` (seconds, of the latest observation), `episode_start` (true on an
-episode's first observation; openpi's `reset()` sends nothing, so the robot says it here) and `mode`
-(`modes.MODES`, default the server's). Other keys are ignored. The reply holds chunk-first arrays, as
-openpi's `ActionChunkBroker(policy, action_horizon=Ta)` slices:
+low-dimensional vectors as float arrays of their shapes, camera images as (H, W, 3) uint8 of any height
+and width, which `images.resize_with_pad` brings to the policy's: the aspect ratio kept, black padding)
+and any other cameras (`observation.images.*`, uint8 (H, W, 3): shown on the page, and recorded where
+the fitted dataset has them, `recorder.kept_keys`), either one observation or, with a leading axis of
+k, the k observations taken since the previous request (one after each executed action, so the history
+holds consecutive steps and the recorder every step; a client that sends one observation without the
+axis after a chunk of several actions, as openpi's `ActionChunkBroker` does, gives the policy a history
+of observations a chunk apart, and its episode cannot be recorded); optionally `timestamp` (seconds, of
+the latest observation), `episode_start` (true on an episode's first observation; openpi's `reset()`
+sends nothing, so the robot says it here) and `mode` (`modes.MODES`, default the server's). Other keys
+are ignored, as are `observation.images.*` that are no RGB image (a depth map). The reply holds
+chunk-first arrays, as openpi's `ActionChunkBroker(policy, action_horizon=Ta)` slices:
 
   actions     (Ta, A) float32   chunk[To-1 : To-1+Ta] in the robot's frame (absolute poses) and its
                                 rotation convention (the spec's `robot_actions`, `data.rotations`)
@@ -43,6 +46,7 @@ from collections.abc import Callable
 import jax
 import numpy as np
 
+from soe_jax.data.images import resize_with_pad
 from soe_jax.data.spec import PolicySpec
 from soe_jax.policies import agent as agent_lib
 from soe_jax.policies.agent import Agent
@@ -51,6 +55,8 @@ from soe_jax.serve.modes import Modes
 
 BOX_TOL = 1e-5  # relative to the box's size: the sampler's clip lands on its faces, in float32
 MAX_SINCE = 1024  # observations one request may carry
+OPTIONAL_KEYS = ("timestamp (optional)", "episode_start (optional)", "mode (optional)",
+                 "episode_end + label (ends an episode)")  # fmt: skip
 
 
 class RequestError(ValueError):
@@ -97,10 +103,15 @@ def _scalar(v):
   return v.item() if isinstance(v, np.ndarray) and v.shape == () else v  # openpi packs 0-d arrays so
 
 
+def _is_camera(value) -> bool:
+  """Whether `value` is an RGB camera image, or a stack of them: uint8 (..., H, W, 3)."""
+  return isinstance(value, np.ndarray) and value.dtype == np.uint8 and value.ndim in (3, 4) and value.shape[-1] == 3
+
+
 def observations_of(spec: PolicySpec, obs: dict) -> tuple[list[dict], bool]:
   """A request's raw observations, checked: one, or the k the leading axis holds -> (k dicts of the
-  spec's keys (images uint8 (H, W, 3), vectors float32), oldest first; whether they came stacked, i.e.
-  as the observations after each executed action)."""
+  spec's keys (images uint8 at the policy's size, vectors float32) and the other cameras (as sent),
+  oldest first; whether they came stacked, i.e. as the observations after each executed action)."""
   if not isinstance(obs, dict):
     raise RequestError(f"a request is a dict of observations, got {type(obs).__name__}")
   missing = [k for k in spec.observations if k not in obs]
@@ -113,12 +124,14 @@ def observations_of(spec: PolicySpec, obs: dict) -> tuple[list[dict], bool]:
       raise RequestError(f"observation {key!r} is a {type(value).__name__}, not an array")
     value = np.asarray(value)
     shape = tuple(info["shape"])
-    stacked = value.ndim == len(shape) + 1 and value.shape[1:] == shape
     if info.get("image"):
-      if value.dtype != np.uint8 or (value.shape != shape and not stacked):
-        raise RequestError(f"image {key!r} must be uint8 of shape {list(shape)} (or k x that), got {value.dtype} "
+      if not _is_camera(value) or 0 in value.shape:
+        raise RequestError(f"image {key!r} must be uint8 height x width x 3 (or k x that), got {value.dtype} "
                            f"{list(value.shape)}")  # fmt: skip
+      stacked = value.ndim == 4
+      value = resize_with_pad(value, shape[:2])
     else:
+      stacked = value.ndim == len(shape) + 1 and value.shape[1:] == shape
       if value.dtype.kind not in "fiu" or (value.shape != shape and not stacked):
         raise RequestError(
           f"observation {key!r} must be numbers of shape {list(shape)} (or k x that), got {value.dtype} {list(value.shape)}"
@@ -137,19 +150,14 @@ def observations_of(spec: PolicySpec, obs: dict) -> tuple[list[dict], bool]:
     raise RequestError(f"{k} observations in one request; between 1 and {MAX_SINCE}")
   if stacks and len(set(stacks)) > 1:
     raise RequestError("some observation keys have the leading axis of observations since the last request, some not")
-  return [{key: v[i] for key, v in arrays.items()} for i in range(k)], bool(stacks) and stacks[0]
-
-
-def extra_cameras(spec: PolicySpec, obs: dict) -> dict:
-  """Camera images a request carries beyond the policy's (`observation.images.*`, uint8 (H, W, 3) or a
-  stack of them; the latest), for a person to watch on the page even when the policy reads none."""
-  out = {}
-  for k, v in obs.items():
-    if isinstance(k, str) and k.startswith("observation.images.") and k not in spec.observations:
-      v = np.asarray(v) if isinstance(v, np.ndarray) else None
-      if v is not None and v.dtype == np.uint8 and v.ndim in (3, 4) and v.shape[-1] == 3:
-        out[k] = v[-1] if v.ndim == 4 else v
-  return out
+  stacked = bool(stacks) and stacks[0]
+  for key, value in obs.items():
+    if isinstance(key, str) and key.startswith("observation.images.") and key not in arrays and _is_camera(value):
+      if (value.ndim == 4) != stacked or (stacked and len(value) != k):
+        want = f"{k} x height x width x 3" if stacked else "height x width x 3"
+        raise RequestError(f"camera {key!r} has shape {list(value.shape)}; beside the other observations: {want}")
+      arrays[key] = value if stacked else value[None]
+  return [{key: v[i] for key, v in arrays.items()} for i in range(k)], stacked
 
 
 def policy_input(spec: PolicySpec, obs: dict):
@@ -184,6 +192,7 @@ class Session:
     self.episode, self.step = -1, 0  # the connection's episode (the page's number) and request in it
     self.episode_id = -1  # the episode's id among the server's (its keys')
     self.bounds = spec.action_bounds()
+    self.kept = recorder_lib.kept_keys(spec)  # what the episode's log keeps of each observation
     self.lock = threading.Lock()  # the page reads what follows while the connection's thread writes it
     self.log: recorder_lib.Episode | None = None  # the episode under way
     self.ended: dict[int, recorder_lib.Episode] = {}  # ended episodes awaiting the page's label
@@ -220,7 +229,8 @@ class Session:
     for x in inputs[1:] if new else inputs:
       history = agent_lib.push_history(history, x)
     if new:
-      log = recorder_lib.Episode(self.episode + 1, observations[-1], stamps[-1], keep=self.recorder is not None)
+      log = recorder_lib.Episode(self.episode + 1, observations[-1], stamps[-1], keep=self.recorder is not None,
+                                 keys=self.kept)  # fmt: skip
     else:
       log = self.log
       try:
@@ -232,7 +242,7 @@ class Session:
       if new:
         self.episode, self.step, self.trail, self.episode_id = self.episode + 1, 0, [], episode_id
       self.history, self.log, self.latest, self.mode = history, log, observations[-1], mode
-      self.cameras = {k: observations[-1][k] for k in self.spec.image_keys} | extra_cameras(self.spec, obs)
+      self.cameras = {k: v for k, v in observations[-1].items() if _is_camera(v)}
     ids = self.keys.ids(self.episode_id, self.step)
     key = request_key(*ids)
     self.step += 1
@@ -347,7 +357,8 @@ def warm_up(agent: Agent, spec: PolicySpec, modes: Modes | None = None) -> None:
 
 
 def metadata(spec: PolicySpec, agent: Agent, modes: Modes | None = None, default_mode: str = "base") -> dict:
-  """The frame sent on connect: the spec, the chunk's timing and the modes."""
+  """The frame sent on connect: the spec, the policy's image size, the chunk's timing, the modes and the
+  cameras a recording keeps."""
   p = agent.policy
   return dict(
     server="soe_jax",
@@ -359,8 +370,9 @@ def metadata(spec: PolicySpec, agent: Agent, modes: Modes | None = None, default
     control_hz=spec.control_hz,
     modes=(modes if modes is not None else Modes(agent, spec)).describe(),
     default_mode=default_mode,
-    request_keys=list(spec.observations)
-    + ["timestamp (optional)", "episode_start (optional)", "mode (optional)", "episode_end + label (ends an episode)"],
+    image_size=list(spec.image_shape) if spec.image_shape else None,  # (height, width); others: resize_with_pad
+    request_keys=[*spec.observations, "observation.images.* (optional: other cameras)", *OPTIONAL_KEYS],
+    recorded_cameras=[k for k in recorder_lib.kept_keys(spec) if k not in spec.lowdim_keys],  # (with --record)
     reply_keys=["actions", "timestamps", "server_timing", "steering (steer mode)"],
     reply_actions=spec.robot_actions,  # the layout of a reply's actions per arm (the robot's rotation part)
   )
