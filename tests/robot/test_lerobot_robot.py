@@ -9,10 +9,12 @@ other dependencies by name (it runs on numpy 2).
 The robot is a stand-in for an SO-101 (`tests/robot/lerobot_scripted_arm/`: LeRobot's base classes,
 registered as a plugin's robot, a kinematic arm and a camera). A scripted expert's demonstrations, taken
 through its `send_action` and `get_observation`, are written as a LeRobotDataset with LeRobot's feature
-names; a tiny policy reading the joints and the camera is fitted on them and served exploring in SOE mode
-and recording; the example runs two episodes, labelled on its standard input (j, k). The robot got every
-action the server recorded as executed, from the observation recorded before it, and saw the connection
-opened before and closed after them.
+names; a tiny policy reading the joints and the camera (at half the camera's height and width) is fitted
+on them and served exploring in SOE mode and recording; the example runs two episodes, labelled on its
+standard input (j, k), sending the camera as the robot gives it (the server brings it to the policy's
+size). The robot got every action the server recorded as executed, from the observation recorded before
+it, and saw the connection opened before and closed after them; the recording keeps the dataset's robot
+type and feature names.
 """
 
 import json
@@ -82,6 +84,7 @@ def test_the_example_drives_a_lerobot_robot(tmp_path):
   config = robot_config.config("smoke,image")
   config.policy.head = ml_collections.ConfigDict(dict(name="mlp", kwargs=dict(hidden=(32, 32))))  # (compiles fast)
   config.dataset.path = str(tmp_path / "data")
+  config.dataset.image_size = (48, 64)  # the robot's camera is 96 x 128
   config.dataset.actions = ((("joints", 5), ("gripper", 1)),)  # an SO-101's joint positions, degrees
   workdir = str(tmp_path / "run")
   run.fit(config, workdir, progress=False)
@@ -112,7 +115,9 @@ def test_the_example_drives_a_lerobot_robot(tmp_path):
   assert len(sent) == 2 * steps and len(seen) == 2 * (steps + 1)  # each episode: its start, then one per action
   assert out.count("'written': True") == 2, out
 
-  _, recorded = lerobot.read_dataset(os.path.join(record, "lerobot"))
+  info, recorded = lerobot.read_dataset(os.path.join(record, "lerobot"))
+  assert info["robot_type"] == "scripted_arm"
+  assert info["features"]["observation.state"]["names"] == names and info["features"]["action"]["names"] == names
   assert [ep["success"] for ep in recorded] == [True, False]  # j, k
   for i, ep in enumerate(recorded):
     np.testing.assert_allclose(ep["actions"], np.asarray(sent[i * steps : (i + 1) * steps], np.float32), atol=1e-5)

@@ -21,7 +21,7 @@ from lerobot.robots import Robot, RobotConfig
 MOTORS = ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll", "gripper")
 GOAL = np.array([20.0, -30.0, 45.0, 60.0, 0.0, 10.0])  # where the expert takes the arm (degrees; gripper 0-100)
 GAIN = 0.5  # the fraction of the way to its goal a joint moves per action
-CAMERA = (48, 64)  # height, width
+CAMERA = (96, 128)  # height, width
 
 
 @RobotConfig.register_subclass("scripted_arm")
@@ -95,12 +95,12 @@ class ScriptedArm(Robot):
 
 
 def render(q: np.ndarray) -> np.ndarray:
-  """The camera's (H, W, 3) uint8 view from above: a 6-pixel white square where the pan (across) and the
+  """The camera's (H, W, 3) uint8 view from above: a 12-pixel white square where the pan (across) and the
   lift (down) put the hand, its red channel the gripper's opening, on grey."""
   img = np.full((*CAMERA, 3), 60, np.uint8)
-  row = int(np.clip((q[1] + 60.0) / 120.0, 0, 1) * (CAMERA[0] - 6))
-  col = int(np.clip((q[0] + 60.0) / 120.0, 0, 1) * (CAMERA[1] - 6))
-  img[row : row + 6, col : col + 6] = (int(np.clip(q[-1], 0, 100) * 2.55), 255, 255)
+  row = int(np.clip((q[1] + 60.0) / 120.0, 0, 1) * (CAMERA[0] - 12))
+  col = int(np.clip((q[0] + 60.0) / 120.0, 0, 1) * (CAMERA[1] - 12))
+  img[row : row + 12, col : col + 12] = (int(np.clip(q[-1], 0, 100) * 2.55), 255, 255)
   return img
 
 
