@@ -97,6 +97,15 @@ def opened(config: ml_collections.ConfigDict, workdir: str, progress: bool = Tru
       exp.timer.close()
 
 
+def run_round0(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) -> None:
+  """Round 0 alone, as `run` makes it in `workdir` (a campaign's first job on a cluster): running the
+  run afterwards resumes after it. A config with a problem is refused (`UserError`) before anything is
+  written."""
+  validation.check(config)
+  with opened(config, workdir, progress) as exp:
+    round0(exp)
+
+
 def run(config: ml_collections.ConfigDict, workdir: str, progress: bool = True) -> None:
   """Run (or resume) the experiment in `workdir` (its report is `analysis.report.write(workdir)`). A config with a problem
   is refused (`UserError`) before anything is written; the first line printed says whether the run

@@ -67,6 +67,7 @@ import functools
 import ml_collections
 
 from soe_jax.envs import registry as env_registry
+from soe_jax.experiment import cluster
 from soe_jax.experiment.schema import ANY_METHOD_VARIANTS, EXPLORERS, METHODS, PROTOCOLS, VARIANTS
 from soe_jax.explore import registry as strategy_registry
 from soe_jax.explore import sime
@@ -162,6 +163,9 @@ def base_config(task: str, num_demos: int) -> ml_collections.ConfigDict:
   # `wandb_project` (WANDB_MODE=offline keeps it on disk, in <workdir>/wandb). videos: each evaluation and
   # exploration stores its first `videos` episodes, drawn to MP4 in <workdir>/videos/ (0: none).
   c.log = ml_collections.ConfigDict(dict(wandb=False, wandb_project="soe_jax", videos=4))
+  # What each job of a campaign on SLURM asks for (partition, time_min, cpus, gpus, mem_gb; `cluster`):
+  # never part of the experiment either.
+  c.slurm = cluster.section()
   c.rounds = ml_collections.ConfigDict(
     dict(num_rounds=3, select="first_success", length_cap=0.0, refit="continue", refit_steps=10_000, refit_lr=0.0,
          refit_ema="restart", steered="successful", new_data="kept", round0_dir="", demo_fraction=0.0,
@@ -221,6 +225,7 @@ def apply_presets(
     c.data.demo_style = CPU_STYLE
     if steer is not None:  # a whole round of 500 steered episodes: lighter steering
       steer.update(num_proposals=8, every=4, max_dims=2)
+    c.slurm.update(cluster.CPU)
   for preset, (field, suffix) in VARIANTS.items():
     if preset not in presets:
       continue
@@ -259,6 +264,7 @@ def apply_presets(
     c.eval.num_start_states = 4
     c.rounds.update(num_rounds=2, refit_steps=20)
     c.log.videos = 0  # (the tests that watch episodes ask for them)
+    c.slurm.update(cluster.SMOKE)
   if presets.get("image"):
     widths = SMOKE_IMAGE_WIDTHS if presets.get("smoke") else CPU_IMAGE_WIDTHS if presets.get("cpu") else RESNET18_WIDTHS
     c.env.obs_mode = "image"

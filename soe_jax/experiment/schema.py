@@ -9,14 +9,16 @@ from __future__ import annotations
 # How a run is logged and watched (wandb, videos): never part of the experiment, and a run resumes with
 # other values here.
 LOGGING = "log."
+# What a campaign's jobs ask of a SLURM cluster (`cluster`): never part of the experiment either.
+CLUSTER = "slurm."
 # Fields that are no setting of an experiment: its training seed and where its shared round 0 lives.
 NOT_SETTINGS = ("seed", "rounds.round0_dir")
 
 
 def is_setting(key: str) -> bool:
   """Whether the flattened field `key` is a setting of the experiment: not its seed, where its round 0
-  lives or how it is logged."""
-  return key not in NOT_SETTINGS and not key.startswith(LOGGING)
+  lives, how it is logged or what its cluster jobs ask for."""
+  return key not in NOT_SETTINGS and not key.startswith((LOGGING, CLUSTER))
 
 
 # What a method's run and its control may differ in: the arm itself (how it explores, what it keeps).
@@ -32,7 +34,7 @@ SAME_BASE_PATH = ("policy.bypass.beta",)
 
 # Sections that do not change round 0 (so methods differing only there share it), and fields that
 # change neither its parameters nor its numbers (the fit's in-fit evaluations).
-NOT_ROUND0 = ("method", "explore", "rounds", LOGGING.rstrip("."))
+NOT_ROUND0 = ("method", "explore", "rounds", LOGGING.rstrip("."), CLUSTER.rstrip("."))
 NOT_ROUND0_FIELDS = ("fit.eval_every", "fit.eval_states", "env.mjx_max_batch")
 # Fields added since configs were first saved, with the value that does what a config without them
 # did: a saved config lacking one reads as having that value.
@@ -61,9 +63,15 @@ ADDED = {
   "rounds.aligned_windows": False,
   "env.object_vector": True,
   "data.demo_style": "scripted",
+  "slurm.partition": "",
+  "slurm.time_min": 1440,
+  "slurm.cpus": 8,
+  "slurm.gpus": 1,
+  "slurm.mem_gb": 32.0,
 }
-# Fields a run may resume with other values in: how it is logged and watched, and MJX's batch cap.
-NOT_COMPARED = (LOGGING, "env.mjx_max_batch")
+# Fields a run may resume with other values in: how it is logged and watched, what its cluster jobs ask
+# for, and MJX's batch cap.
+NOT_COMPARED = (LOGGING, CLUSTER, "env.mjx_max_batch")
 # Strategy settings added since, likewise: strategy -> {setting: the value that does what its absence did}.
 ADDED_SETTINGS = {"soe": {"hold": 1}}
 # Fields of configs saved before they moved: old name -> new name ("a.b." is a whole section).
@@ -88,7 +96,7 @@ ACTION_RANGES = ("workspace", "demonstrations")  # what action positions are nor
 POSITIVE = ("env.episode_length", "env.mjx_max_batch", "data.num_demos", "data.capacity", "data.max_length", "policy.n_obs_steps",
             "policy.horizon", "policy.n_action_steps", "fit.num_steps", "fit.batch_size", "fit.chunk_size",
             "fit.eval_states", "rollout.decisions_per_call", "explore.num_start_states", "explore.tries",
-            "eval.num_start_states", "rounds.refit_steps")  # fmt: skip
+            "eval.num_start_states", "rounds.refit_steps", "slurm.time_min", "slurm.cpus")  # fmt: skip
 NON_NEGATIVE = (
   "rollout.slice_size",
   "rounds.num_rounds",
@@ -99,6 +107,8 @@ NON_NEGATIVE = (
   "fit.eval_every",
   "rounds.refit_lr",
   "rounds.length_cap",
+  "slurm.gpus",
+  "slurm.mem_gb",
 )
 
 # A method is an arm of the experiment; each explorer explores with the strategy of the same name, and

@@ -7,6 +7,8 @@ import os
 import numpy as np
 import pytest
 
+# (submitit's log handlers take the streams of when it is imported: these, not a test's captured ones)
+import soe_jax.analysis.slurm  # noqa: F401
 from configs import lift as lift_config
 from soe_jax.analysis import aggregate, campaign, results
 from soe_jax.experiment import phases
@@ -277,3 +279,41 @@ def test_a_kl_arm_pairs_with_the_control_only_where_its_base_path_is_the_control
   _fake_run(tmp_path / "s1" / "soe-beta0", "soe,beta=0", 1, [0, 0, 0, 1], [1, 1, 0, 1])
   with pytest.raises(UserError, match="keeps the base path, but their round-0 evaluations differ"):
     aggregate.rows(aggregate.find_runs(str(tmp_path)))
+
+
+def test_a_campaigns_tasks_and_seeds_make_its_grid():
+  """`--tasks` names config files beside `--config`'s, with its presets; `--seeds` sets each seed."""
+  grid = campaign.grid("configs/lift.py:cpu", {"log.videos": 0}, ["lift", "can"], ["0", "2"])
+  assert grid == [("configs/lift.py:cpu", {"log.videos": 0, "seed": 0}), ("configs/lift.py:cpu", {"log.videos": 0, "seed": 2}),
+                  ("configs/can.py:cpu", {"log.videos": 0, "seed": 0}), ("configs/can.py:cpu", {"log.videos": 0, "seed": 2})]  # fmt: skip
+  assert campaign.grid("configs/lift.py", {"seed": 4}, [], []) == [("configs/lift.py", {"seed": 4})]
+  for tasks, seeds, overrides, message in (
+    (["lift", "lfit"], [], {}, r"no config file at 'configs/lfit.py'"),
+    (["lift", "lift"], [], {}, r"--tasks names a task twice: lift,lift"),
+    ([], ["0", "one"], {}, r"--seeds takes integers, got 0,one"),
+    ([], ["1", "1"], {}, r"--seeds names a seed twice: 1,1"),
+    ([], ["0", "1"], {"seed": 3}, r"give the training seeds once: --seeds=0,1,2 or --config.seed=K, not both"),
+  ):
+    with pytest.raises(UserError, match=message):
+      campaign.grid("configs/lift.py:cpu", overrides, tasks, seeds)
+
+
+def test_a_campaigns_mistakes_are_one_line_before_anything_is_queued(tmp_path, monkeypatch, capsys):
+  """A bad seed, or `--executor=slurm` where SLURM's commands are missing: one `error:` line, nothing
+  written."""
+  from soe_jax import __main__ as entry
+
+  monkeypatch.setenv("PATH", str(tmp_path))  # (no srun)
+  common = ["soe_jax", "campaign", "--config=configs/lift.py:smoke", f"--workdir={tmp_path / 'runs'}",
+            f"--results={tmp_path / 'results'}"]  # fmt: skip
+  for args, expected in (
+    (["--seeds=0,x"], "error: --seeds takes integers, got 0,x"),
+    (
+      ["--seeds=0", "--executor=slurm"],
+      "error: --executor=slurm needs SLURM's commands (srun, sbatch) on this machine",
+    ),
+  ):
+    with pytest.raises(SystemExit) as stopped:
+      entry.main(common + args)
+    assert stopped.value.code == 2 and capsys.readouterr().err.strip().splitlines() == [expected]
+  assert not os.path.exists(tmp_path / "runs") and not os.path.exists(tmp_path / "results")

@@ -1,7 +1,8 @@
-"""The science issues' launch scripts (`launch/why_own_successes.sh`, `launch/protocol.sh`) start
-commands that exist with arms that load: every part run with a stand-in `python` that records its
-command lines, each campaign line parsed with the campaign's flags and its methods' configs loaded and
-checked (nothing run, nothing compiled), so a typo fails here, not an hour into a campaign."""
+"""The science issues' launch scripts (`launch/why_own_successes.sh`, `launch/protocol.sh`) and
+`launch/campaign.sh` start commands that exist with arms that load: every part run with a stand-in
+`python` that records its command lines, each campaign line parsed with the campaign's flags and its
+methods' configs loaded and checked (nothing run, nothing compiled), so a typo fails here, not an hour
+into a campaign."""
 
 import importlib
 import os
@@ -242,3 +243,17 @@ def test_a_bad_part_is_refused_before_anything_runs(tmp_path, script, args, says
   env = {k: v for k, v in os.environ.items() if k != "BETA"}
   p = subprocess.run(["bash", f"launch/{script}", *argv], cwd=ROOT, env=env, capture_output=True, text=True)
   assert p.returncode == 2 and says in p.stderr and not runs.exists()
+
+
+def test_the_campaign_script_is_one_campaign_over_its_tasks_and_seeds(parsed):
+  """`launch/campaign.sh TASKS SEEDS PRESET METHODS [FLAGS]` starts one `campaign` over every task and
+  seed, its flags after them passed on (`--executor=slurm`)."""
+  ((argv, configs),) = parsed("campaign.sh", "lift can", "0 1", "cpu", "dp,soe", "--executor=slurm")
+  flags = dict(a.split("=", 1) for a in argv[3:])
+  assert (flags["--config"], flags["--tasks"], flags["--seeds"]) == ("configs/lift.py:cpu", "lift,can", "0,1")
+  assert (
+    flags["--executor"] == "slurm" and flags["--results"] == "results/campaign-cpu" and sorted(configs) == ["dp", "soe"]
+  )
+  grid = campaign_lib.grid(flags["--config"], {}, ["lift", "can"], ["0", "1"])
+  assert [(spec, o["seed"]) for spec, o in grid] == [("configs/lift.py:cpu", 0), ("configs/lift.py:cpu", 1),
+                                                     ("configs/can.py:cpu", 0), ("configs/can.py:cpu", 1)]  # fmt: skip

@@ -33,7 +33,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from soe_jax.analysis import aggregate, campaign
+from soe_jax.analysis import campaign
 from soe_jax.analysis import report as run_report
 from soe_jax.analysis.studies.study import Study, setting
 from soe_jax.data import hdf5
@@ -139,9 +139,7 @@ class Relabel(Study):
     loop.run(config, workdir, self.progress)
     summary = run_report.write(workdir)
     if self.results:
-      dest = os.path.join(self.results, config.env.task, f"seed{config.seed}", config.method)
-      campaign.export(workdir, dest, dict(header, source_run=os.path.abspath(source)))
-      aggregate.write(self.results)
+      campaign.publish(workdir, config, self.results, dict(header, source_run=os.path.abspath(source)))
     return dict(report=os.path.join(workdir, "report.md"), summary=summary)
 
   def report(self, record):
