@@ -71,9 +71,11 @@ class Modes:
     p = agent.policy
     self.settings, self.spec = mode_settings(p, settings), spec
     self.snr_db = None if snr_db is None else [float(x) for x in snr_db]
-    # A person chooses on the page (no scripted chooser); the proposals spread over the spec's positions.
-    idx = np.asarray([i for i in spec.position_indices() if len(i) == 3])  # (R, 3)
-    steer = registry.STRATEGIES.factory("soe_steer")(positions=lambda x: x[..., idx], **self.settings["steer"])
+    # A person chooses on the page (no scripted chooser); the proposals spread over the arms' commanded
+    # positions, or over the whole action where it has none (a joint-space arm's).
+    idx = np.asarray([i for i in spec.position_indices() if len(i) == 3], int)  # (R, 3)
+    positions = (lambda x: x[..., idx]) if idx.size else (lambda x: x)
+    steer = registry.STRATEGIES.factory("soe_steer")(positions=positions, **self.settings["steer"])
     self.strategies = dict(
       soe=registry.make_strategy("soe", **self.settings["soe"]),
       sime=registry.make_strategy("sime", **self.settings["sime"]),

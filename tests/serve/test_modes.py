@@ -98,6 +98,23 @@ def test_each_mode_gives_its_own_path(served):
   assert "steer" not in plain.available and "no stored SNR" in plain.unavailable["steer"]
 
 
+def test_steering_a_joint_space_arm_spreads_its_proposals_over_the_whole_action():
+  """An action with no 3-D position part (an SO-101's joints): steering compiles, and its proposals are
+  the farthest apart over the whole action."""
+  joints = dict(SPEC, actions=[[["joints", 9], ["gripper", 1]]], observations={"observation.state": {"shape": [7],
+                "dtype": "float32"}})  # fmt: skip
+  joints.pop("action_box")
+  spec = PolicySpec.from_dict(joints)
+  agent = _agent(spec)
+  modes = modes_lib.Modes(agent, spec, dict(steer=dict(num_proposals=6, num_choices=2)), SNR)
+  assert "steer" in modes.available
+  x = session.policy_input(spec, _obs(np.random.default_rng(0)))
+  history = agent_lib.initial_history(x, agent.policy.n_obs_steps)
+  proposals, dims = modes("steer", agent, history, session.request_key(0, 0, 0, 0))
+  assert np.asarray(proposals).shape == (1, 2 * len(modes.dims), agent.policy.n_action_steps, 10)
+  assert np.abs(np.asarray(proposals)[0, 0] - np.asarray(proposals)[0, 1]).max() > 1e-4
+
+
 def test_steering_sends_the_chosen_proposal_or_the_base_path_on_timeout(served):
   agent, spec, modes = served
   o = _obs(np.random.default_rng(1))
