@@ -73,7 +73,7 @@ def _executor(settings: ml_collections.ConfigDict, folder: str, name: str) -> su
   if settings.gpus:
     params["gpus_per_node"] = int(settings.gpus)
   if settings.mem_gb:
-    params["mem"] = float(settings.mem_gb)  # (in GB)
+    params["mem"] = f"{round(settings.mem_gb * 1024)}M"
   executor.update_parameters(**params)
   return executor
 

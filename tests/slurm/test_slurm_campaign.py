@@ -21,8 +21,8 @@ HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 SPEC = f"{toy_config.__file__}:smoke"
 METHODS = ["control", "dp", "soe"]
-# One round; one CPU a job (two at once on the two-CPU node); the node's memory is the partition's default.
-OVERRIDES = {"rounds.num_rounds": 1, "slurm.cpus": 1, "slurm.mem_gb": 0.0, "slurm.time_min": 15}
+# One round; a job asks for one CPU (two run at once on the two-CPU node) and a quarter of a GB.
+OVERRIDES = {"rounds.num_rounds": 1, "slurm.cpus": 1, "slurm.mem_gb": 0.25, "slurm.time_min": 15}
 SEEDS = ["0", "1"]
 ENDED_WITHIN_S = 900
 
@@ -99,6 +99,7 @@ def test_a_campaign_on_slurm_equals_the_local_one_state_for_state(cluster, local
     assert re.search(rf"^{r0[2]}_\[0-2\S*\] toy-s{seed}-arm PENDING afterok:{r0[1]}\S*$", queued, re.M), queued
     script = (root / slurm.LOGS / r0[2] / f"{r0[2]}_submission.sh").read_text()
     assert f"#SBATCH --dependency=afterok:{r0[1]}\n" in script and "#SBATCH --array=0-2" in script
+    assert all(f"#SBATCH --{asked}\n" in script for asked in ("cpus-per-task=1", "mem=256M", "time=15"))
     assert len(os.listdir(root / "toy" / f"seed{seed}" / "round0")) == 1  # one round 0, made by its job
     for method in METHODS:
       assert _outcomes(results, int(seed), method) == _outcomes(local, int(seed), method), (seed, method)
