@@ -12,7 +12,7 @@ import sys
 COMMANDS = {
   "run": "the self-improvement experiment: round 0, then rounds of explore, keep, re-fit, evaluate",
   "compare": "exploration strategies side by side from one base policy (no re-fit)",
-  "campaign": "one task x one training seed of a comparison of methods, each run copied to results/",
+  "campaign": "a comparison of methods over tasks x training seeds, here or as SLURM jobs, each run copied to results/",
   "aggregate": "finished runs -> one table over tasks x methods, paired with round 0 and the control",
   "results": "committed records under results/ -> tables; --docs regenerates the documents' tables",
   "study": "measurement studies, each with its settings as flags (`study` lists them, `study NAME --help`)",

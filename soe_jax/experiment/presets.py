@@ -57,7 +57,9 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
   recipe Lift's screen chose: round 0 converged in about 15 minutes of fit here and level with the
   16/32/64/128 trunk fitted to convergence; BENCHMARKS.md, "The image recipe under the picked
   protocol"; accelerators keep ResNet-18's 64/128/256/512) and round 0 fits for the task's steps.
-Single fields are overridden on the command line with `--config.fit.lr=3e-4`.
+`cpu` and `smoke` also size the `slurm` section, what each job of a campaign on a SLURM cluster asks for
+(`cluster`; the paper-scale sizes otherwise). Single fields are overridden on the command line with
+`--config.fit.lr=3e-4`.
 """
 
 from __future__ import annotations
