@@ -18,7 +18,7 @@ import contextlib
 import io
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 import ml_collections
 import submitit
@@ -92,18 +92,18 @@ def _sbatch(what: str):
 
 def submit(
   campaigns: list[list[campaign.Arm]], root: str, argv: list[str], within: Callable | None = None
-) -> list[str]:
+) -> Iterator[str]:
   """Queue the jobs of each task and seed (its arms, from `campaign.arms`) with their logs under the
   runs root `root`; `argv` is the campaign's command line (its arms' `command.json` names it) and
-  `within` a wrapper for the jobs' work (`_job`) -> a line per task and seed saying what was queued."""
+  `within` a wrapper for the jobs' work (`_job`). Yields a line per task and seed saying what it
+  queued, once it has."""
   folder = os.path.join(root, LOGS)
-  lines = []
   for arms in campaigns:
     config = arms[0].config
     label = f"{config.env.task} seed {config.seed}"
     todo = [arm for arm in arms if not arm.finished()]
     if not todo:
-      lines.append(f"{label}: every arm finished; nothing queued")
+      yield f"{label}: every arm finished; nothing queued"
       continue
     name = f"{config.env.task}-s{config.seed}"
     dependency, first = {}, "round 0 made; "
@@ -116,5 +116,4 @@ def submit(
     with _sbatch(f"the arms' jobs of {label}"), executor.batch():
       jobs = [executor.submit(_job, within, _arm, arm, argv) for arm in todo]
     listed = ", ".join(f"{job.job_id} {arm.config.method}" for job, arm in zip(jobs, todo))
-    lines.append(f"{label}: {first}{len(todo)} arm{'s' * (len(todo) > 1)}: {listed}")
-  return lines
+    yield f"{label}: {first}{len(todo)} arm{'s' * (len(todo) > 1)}: {listed}"

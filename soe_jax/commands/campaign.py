@@ -57,7 +57,8 @@ def _campaign(argv: list[str]) -> None:
     return
   from soe_jax.analysis import slurm  # (submitit, only here)
 
-  print("\n".join(slurm.submit(planned, FLAGS.workdir, sys.argv)))
+  for line in slurm.submit(planned, FLAGS.workdir, sys.argv):
+    print(line, flush=True)
   print(f"`squeue --me` lists the jobs; {FLAGS.results}/comparison.md is rewritten as each run ends "
         f"(`python -m soe_jax aggregate {FLAGS.results}` at any time)")  # fmt: skip
 

@@ -62,6 +62,12 @@ def _plan(root, results, seeds) -> list[list[campaign.Arm]]:
   return [campaign.arms(s, o, METHODS, str(root), str(results)) for s, o in campaign.grid(SPEC, OVERRIDES, [], seeds)]
 
 
+def _submit(root, results, seeds) -> list[str]:
+  """The toy campaign's jobs queued -> what `submit` said, a line per seed."""
+  argv = ["python -m soe_jax campaign", "--executor=slurm"]
+  return list(slurm.submit(_plan(root, results, seeds), str(root), argv, within=toy_jobs.registered))
+
+
 def _wait(root) -> None:
   """Until the cluster has no job left (its jobs are this test's)."""
   deadline = time.monotonic() + ENDED_WITHIN_S
@@ -89,7 +95,7 @@ def test_a_campaign_on_slurm_equals_the_local_one_state_for_state(cluster, local
   """Per seed, round 0 is one job and the arms a job array after it (`afterok`); every arm's per-state
   outcomes equal the local executor's, and the table has every run."""
   root, results = tmp_path / "runs", tmp_path / "results"
-  lines = slurm.submit(_plan(root, results, SEEDS), str(root), ["campaign"], within=toy_jobs.registered)
+  lines = _submit(root, results, SEEDS)
   queued = _slurm("squeue", "-h", "-o", "%i %j %T %E")
   _wait(root)
   for seed, line in zip(SEEDS, lines):
@@ -103,6 +109,8 @@ def test_a_campaign_on_slurm_equals_the_local_one_state_for_state(cluster, local
     assert len(os.listdir(root / "toy" / f"seed{seed}" / "round0")) == 1  # one round 0, made by its job
     for method in METHODS:
       assert _outcomes(results, int(seed), method) == _outcomes(local, int(seed), method), (seed, method)
+  made = json.loads((results / "toy" / "seed1" / "soe" / "command.json").read_text())
+  assert made["command"] == "python -m soe_jax campaign --executor=slurm" and "--config.seed=1" in made["main_command"]
   table = (results / "comparison.md").read_text()
   assert all(f"| toy | {m} |" in table for m in METHODS) and table.count("| 2 |") >= 3  # 2 seeds a row
 
@@ -111,7 +119,7 @@ def test_a_cancelled_arm_resubmitted_finishes_with_the_same_numbers(cluster, loc
   """An arm's job cancelled once its run has started (`scancel`): the same submission again queues that
   arm alone (round 0 is made, the others finished) and its run ends as the local one did."""
   root, results = tmp_path / "runs", tmp_path / "results"
-  (line,) = slurm.submit(_plan(root, results, ["0"]), str(root), ["campaign"], within=toy_jobs.registered)
+  (line,) = _submit(root, results, ["0"])
   soe = re.search(r"(\d+_2) soe", line)[1]
   started = root / "toy" / "seed0" / "soe" / "config.json"
   deadline = time.monotonic() + ENDED_WITHIN_S
@@ -122,10 +130,10 @@ def test_a_cancelled_arm_resubmitted_finishes_with_the_same_numbers(cluster, loc
   _wait(root)
   (arm,) = [a for a in _plan(root, results, ["0"])[0] if a.config.method == "soe"]
   assert not arm.finished() and not (results / "toy" / "seed0" / "soe").exists()
-  (again,) = slurm.submit(_plan(root, results, ["0"]), str(root), ["campaign"], within=toy_jobs.registered)
+  (again,) = _submit(root, results, ["0"])
   assert re.fullmatch(r"toy seed 0: round 0 made; 1 arm: \d+ soe", again), again
   _wait(root)
   for method in METHODS:
     assert _outcomes(results, 0, method) == _outcomes(local, 0, method), method
-  (done,) = slurm.submit(_plan(root, results, ["0"]), str(root), ["campaign"], within=toy_jobs.registered)
+  (done,) = _submit(root, results, ["0"])
   assert done == "toy seed 0: every arm finished; nothing queued"
