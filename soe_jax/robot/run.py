@@ -277,13 +277,19 @@ def refit(workdir: str, recorded: str, progress: bool = True, mode: str | None =
 
 def _without_decisions(sets: list[EpisodeSet], n_action_steps: int) -> list[str]:
   """The recorded episodes whose windows cannot be aligned to decisions ('round 1 episode 4', ...):
-  those without the recorder's `decision` feature, or whose decisions are not every `n_action_steps`
-  steps from the first (a client that executed part of a chunk)."""
+  those without the recorder's `decision` feature, whose decisions are not every `n_action_steps`
+  steps from the first (a client that executed part of a chunk), or where the frames from one decision
+  to the next came from more than one request (`request_key`: a client with real-time chunks, which
+  executes an earlier chunk's actions at a decision and aggregates overlapping chunks)."""
   out = []
   for s in sets:
     for ep in s.episodes:
       decision = ep["columns"].get("decision")
       every = np.arange(len(ep["actions"])) % n_action_steps == 0
       if decision is None or not np.array_equal(np.asarray(decision), every.astype(np.asarray(decision).dtype)):
+        out.append(f"round {s.source} episode {ep['episode_index']}")
+      elif (key := ep["columns"].get("request_key")) is not None and any(
+        len(np.unique(np.asarray(key)[i : i + n_action_steps, 3])) > 1 for i in np.flatnonzero(every)
+      ):
         out.append(f"round {s.source} episode {ep['episode_index']}")
   return out

@@ -2,9 +2,13 @@
 
 An episode, as one connection's requests make it: the first observation (`episode_start`), then each
 request carries the observations taken since the previous one (each observation key with a leading
-axis of k, or one observation), one per action of the previous reply executed. A frame is an
-observation and the action executed from it, so request n's k observations close k frames of reply
-n-1's actions. `end` closes the last reply's frames with the observations sent with it.
+axis of k, or one observation), one after each action executed. A frame is an observation and the
+action executed from it. A request that says which actions were executed (`executed` (k, A) and
+`executed_from` (k,), the request whose chunk each came from: a client with real-time chunks, which
+asks for the next chunk while executing this one, aggregates overlapping chunks and holds its last
+command when none is due) closes k frames with those; one that does not (the blocking loop) closes k
+frames of the previous reply's first k actions. `end` closes the last frames with the observations
+(and executed actions) sent with it.
 
 A labelled episode (success / failure; a discarded one is dropped) is saved losslessly as
 `<dir>/episodes/<n>.npz` (written whole, then renamed), and the LeRobotDataset `<dir>/lerobot` is
@@ -14,9 +18,12 @@ successful episode's last frame, and the columns `mode` (index into `modes.MODES
 observation's timestamp), `start_state` (the attempt group a person gave, -1 when none), which
 `refit.select=first_success` and `python -m soe_jax table1` group tries by, and `request_key` (seed,
 instance, episode id, request: `session.request_key` of them is the key the frame's action was
-sampled with; -1s in episodes recorded before the column existed), and `decision` (1 on the first frame
-of each reply, the step the policy decided at, 0 on the others; -1 in episodes recorded before the
-column existed), which a re-fit's windows aligned to decisions need (`rounds.aligned_windows`).
+sampled with, for an aggregated action the newest chunk's; -1s in episodes recorded before the column
+existed), and `decision` (1 on each frame whose observation a request's chunk was sampled from, the
+step the policy decided at, 0 on the others; -1 in episodes recorded before the column existed). In
+the blocking loop a decision is its reply's first frame, and a re-fit's windows aligned to decisions
+hold one chunk as sampled (`rounds.aligned_windows`); with real-time chunks the action executed at a
+decision is an earlier chunk's (the reply comes later), and the frames' `request_key` says so.
 
 Cameras and names: the policy's cameras are kept as the policy read them (at its size), and each other
 camera of the dataset the policy was fitted on (`spec.source`) as the robot sent it, when the robot sent
@@ -77,10 +84,12 @@ class Episode:
     self.keys = None if keys is None else tuple(keys)
     observation = self._kept(observation)
     # (observation, action, robot time, mode, the request's key ids (seed, instance, episode, request),
-    # whether the action is its reply's first: the policy decided at this frame)
+    # whether the policy decided at this frame: a request's chunk was sampled from its observation)
     self.frames: list[tuple[dict, np.ndarray, float, int, tuple, bool]] = []
     self.current, self.current_time = observation, float(stamp)
+    self.decided = False  # whether a request's chunk was sampled from `current`
     self.pending = None  # (actions (Ta, A), mode index, key ids) of the last reply
+    self.replies: list[tuple[int, tuple]] = []  # (mode index, key ids) of each reply, by request
     self.start_state = None  # the attempt group, when the robot names it at the end
     self.gaps: str | None = None  # why the frames are not every step's, if they are not
 
@@ -88,13 +97,27 @@ class Episode:
     return observation if self.keys is None else {k: observation[k] for k in self.keys if k in observation}
 
   def sent(self, actions: np.ndarray, mode: str, key: tuple = NO_KEY) -> None:
+    """The reply to a request sampled from the latest observation (`current`): a decision."""
     self.pending = (np.asarray(actions, np.float32), MODES.index(mode), tuple(key))
+    self.replies.append(self.pending[1:])
+    self.decided = True
 
-  def advance(self, observations: list[dict], stamps: list[float], stacked: bool = True) -> None:
-    """Close frames with the k observations taken after each of the last reply's first k actions
-    (`stacked`: they came with the leading axis that says so). One observation without that axis after
-    a reply of several actions says nothing of the steps between (openpi's `ActionChunkBroker` sends
-    so): the episode has gaps, and is refused when labelled rather than written wrong."""
+  def advance(self, observations: list[dict], stamps: list[float], stacked: bool = True, executed=None) -> None:
+    """Close frames with the k observations taken after each of k actions: those `executed` (actions
+    (k, A), the request of each's chunk (k,)) or, without it, the last reply's first k (`stacked`: the
+    observations came with the leading axis that says so). One observation without that axis after a
+    reply of several actions says nothing of the steps between (openpi's `ActionChunkBroker` sends so):
+    the episode has gaps, and is refused when labelled rather than written wrong."""
+    if executed is not None:
+      actions, sources = executed
+      if len(actions) != len(observations):
+        raise LabelError(f"{len(actions)} executed actions with {len(observations)} observations: send one after each")
+      if bad := [int(r) for r in sources if not 0 <= r < len(self.replies)]:
+        raise LabelError(f"executed_from names request {bad[0]}, but this episode's requests are 0 to "
+                         f"{len(self.replies) - 1}")  # fmt: skip
+      self._close(observations, stamps, [(a, *self.replies[int(r)]) for a, r in zip(actions, sources)])
+      self.pending = None
+      return
     if observations and not stacked and self.pending is not None and len(self.pending[0]) > 1:
       self.gaps = self.gaps or (f"one observation without the leading axis after a reply of {len(self.pending[0])} "
                                 "actions")  # fmt: skip
@@ -105,11 +128,16 @@ class Episode:
     actions, mode, key = self.pending
     if len(observations) > len(actions):
       raise LabelError(f"{len(observations)} observations since the last reply, which sent {len(actions)} actions")
-    for i, (action, obs, stamp) in enumerate(zip(actions, observations, stamps)):
-      if self.keep:
-        self.frames.append((self.current, action, self.current_time, mode, key, i == 0))
-      self.current, self.current_time = self._kept(obs), float(stamp)
+    self._close(observations, stamps, [(a, mode, key) for a in actions[: len(observations)]])
     self.pending = None
+
+  def _close(self, observations: list[dict], stamps: list[float], actions: list[tuple]) -> None:
+    """One frame per (action, mode, key ids) of `actions`: the current observation and that action, then
+    the next observation is current."""
+    for (action, mode, key), obs, stamp in zip(actions, observations, stamps):
+      if self.keep:
+        self.frames.append((self.current, np.asarray(action, np.float32), self.current_time, mode, key, self.decided))
+      self.current, self.current_time, self.decided = self._kept(obs), float(stamp), False
 
   def arrays(self, spec: PolicySpec, success: bool, start_state: int) -> dict:
     if self.gaps:

@@ -13,8 +13,13 @@ axis after a chunk of several actions, as openpi's `ActionChunkBroker` does, giv
 of observations a chunk apart, and its episode cannot be recorded); optionally `timestamp` (seconds, of
 the latest observation), `episode_start` (true on an episode's first observation; openpi's `reset()`
 sends nothing, so the robot says it here) and `mode` (`modes.MODES`, default the server's). Other keys
-are ignored, as are `observation.images.*` that are no RGB image (a depth map). The reply holds
-chunk-first arrays, as openpi's `ActionChunkBroker(policy, action_horizon=Ta)` slices:
+are ignored, as are `observation.images.*` that are no RGB image (a depth map). A client with real-time
+chunks (`client.RealTime`) adds `executed` (k, A), the actions it executed at the steps whose
+observations it sends (in the robot's layout), and `executed_from` (k,), the request whose chunk each
+came from; the recorder writes those. It keeps one request in flight and needs no more: the
+connection's frames are answered in order, so a second request sent meanwhile would wait for the
+first's reply. The reply holds chunk-first arrays, as openpi's `ActionChunkBroker(policy,
+action_horizon=Ta)` slices:
 
   actions     (Ta, A) float32   chunk[To-1 : To-1+Ta] in the robot's frame (absolute poses) and its
                                 rotation convention (the spec's `robot_actions`, `data.rotations`)
@@ -56,6 +61,7 @@ from soe_jax.serve.modes import Modes
 BOX_TOL = 1e-5  # relative to the box's size: the sampler's clip lands on its faces, in float32
 MAX_SINCE = 1024  # observations one request may carry
 OPTIONAL_KEYS = ("timestamp (optional)", "episode_start (optional)", "mode (optional)",
+                 "executed + executed_from (optional: the actions executed, real-time chunks)",
                  "episode_end + label (ends an episode)")  # fmt: skip
 
 
@@ -160,6 +166,24 @@ def observations_of(spec: PolicySpec, obs: dict) -> tuple[list[dict], bool]:
   return [{key: v[i] for key, v in arrays.items()} for i in range(k)], stacked
 
 
+def executed_of(spec: PolicySpec, obs: dict, k: int) -> tuple[np.ndarray, np.ndarray] | None:
+  """A request's `executed` (k, A) actions in the robot's layout and `executed_from` (k,), the request of
+  each one's chunk, checked against its k observations (None when it names none: the blocking loop)."""
+  if "executed" not in obs and "executed_from" not in obs:
+    return None
+  if "executed" not in obs or "executed_from" not in obs:
+    raise RequestError("executed and executed_from go together: the actions executed and the request of each's chunk")
+  dim = sum(size for arm in spec.robot_actions for _, size in arm)
+  actions, sources = np.asarray(obs["executed"]), np.asarray(obs["executed_from"])
+  if actions.dtype.kind not in "fiu" or actions.shape != (k, dim) or not np.all(np.isfinite(actions)):
+    raise RequestError(f"executed must be {k} x {dim} finite numbers (one action after each observation sent), got "
+                       f"{actions.dtype} {list(actions.shape)}")  # fmt: skip
+  if sources.dtype.kind not in "iu" or sources.shape != (k,):
+    raise RequestError(f"executed_from must be {k} whole numbers (the request of each executed action's chunk), got "
+                       f"{sources.dtype} {list(sources.shape)}")  # fmt: skip
+  return actions.astype(np.float32), sources.astype(np.int64)
+
+
 def policy_input(spec: PolicySpec, obs: dict):
   """A raw observation dict -> its latest observation as the policy reads it (batch of 1): the low-dim
   vector (1, D) of the spec's keys in order, with {"lowdim", "images"} for an image policy."""
@@ -213,6 +237,9 @@ class Session:
     start = _scalar(obs.get("episode_start", False))
     if not isinstance(start, (bool, np.bool_)):
       raise RequestError(f"episode_start must be true or false, got {start!r}")
+    executed = executed_of(self.spec, obs, len(observations))
+    if executed is not None and start:
+      raise RequestError("executed actions with episode_start: an episode's first request follows no action")
     stamp = _scalar(obs.get("timestamp", time.time()))
     if not isinstance(stamp, (int, float, np.number)) or not np.isfinite(stamp):
       raise RequestError(f"timestamp must be a number of seconds, got {stamp!r}")
@@ -234,7 +261,7 @@ class Session:
     else:
       log = self.log
       try:
-        log.advance(observations, stamps, stacked)
+        log.advance(observations, stamps, stacked, executed)
       except recorder_lib.LabelError as e:
         raise RequestError(str(e)) from None
     episode_id = self.keys.new_episode() if new else self.episode_id
@@ -290,11 +317,11 @@ class Session:
       raise RequestError(str(e)) from None
     has_obs = all(k in obs for k in self.spec.observations)
     observations, stacked = observations_of(self.spec, obs) if has_obs else ([], True)
+    executed = executed_of(self.spec, obs, len(observations))
     dt, stamp = 1.0 / self.spec.control_hz, _scalar(obs.get("timestamp", time.time()))
+    stamps = [float(stamp) - dt * (len(observations) - 1 - i) for i in range(len(observations))]
     try:
-      self.log.advance(
-        observations, [float(stamp) - dt * (len(observations) - 1 - i) for i in range(len(observations))]
-      )
+      self.log.advance(observations, stamps, executed=executed)
     except recorder_lib.LabelError as e:
       raise RequestError(str(e)) from None
     log = self.log
