@@ -4,6 +4,8 @@ study (its `table`, found by its `kind`), the others here:
 - `env`, `encoder`, `mjx`: `python -m soe_jax bench env|encoder|mjx --out=...`, a row per record;
 - `fit_step`: `python -m soe_jax bench fit --out=...`, the whole policy's fit step, a row per setting;
 - `serve`: `python -m soe_jax bench serve`, the policy server's latency per chunk, a row per record;
+- `realtime`: `python -m soe_jax bench realtime`, real-time chunks against the blocking loop, a row per
+  rate and loop (the table is `bench/realtime.py`'s);
 - `memory`: a run's peak memory, measured by `/usr/bin/time -v`;
 - `demo_styles`: `python -m soe_jax experts --measure`, how varied each demonstrator's episodes are.
 """
@@ -165,6 +167,7 @@ def serve_table(records: Records) -> str:
 
 
 TABLES.register("serve", serve_table)
+TABLES.register("realtime", "soe_jax.bench.realtime:table")
 
 
 def demo_styles_table(records: Records) -> str:

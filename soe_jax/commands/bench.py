@@ -13,8 +13,10 @@
   python -m soe_jax bench rollout --config=configs/lift.py:cpu --strategy=soe --num_envs=100
   python -m soe_jax bench torch --down_dims=256,512,1024 --step_embed_dim=256 --batch=256
   python -m soe_jax bench serve --config=configs/lift.py:cpu [--requests=200] [--out=results/serve/<name>.json]
+  python -m soe_jax bench realtime --checkpoint=RUN/round0/<name>/ckpt [--rates=10,30 --delay_ms=50 --states=50]
+      [--out=results/realtime/<name>.json]
 
-Each benchmark has flags of its own; `--out` (env, mjx, encoder, serve) also writes the result as a record
+Each benchmark has flags of its own; `--out` (env, mjx, encoder, serve, realtime) also writes the result as a record
 for `results/`, with the command, the commit and the machine.
 """
 
@@ -27,6 +29,7 @@ from collections.abc import Callable
 
 from soe_jax.analysis import records
 from soe_jax.bench import encoder, env, mjx, policy, rollout, torch_reference
+from soe_jax.bench import realtime as realtime_bench
 from soe_jax.bench import serve as serve_bench
 from soe_jax.envs import backends, observations
 from soe_jax.envs import registry as env_registry
@@ -34,6 +37,7 @@ from soe_jax.experiment import rundir
 from soe_jax.experts import registry as expert_registry
 from soe_jax.render import choice as render_choice
 from soe_jax.runtime import cli, provenance
+from soe_jax.serve import client as client_lib
 
 USAGE = "python -m soe_jax bench SUB [flags]"
 
@@ -196,6 +200,46 @@ def _serve(f: cli.Flags, argv: list[str]) -> dict:
   return result
 
 
+# -- realtime ----------------------------------------------------------------------------------------
+def _realtime_flags(f: cli.Flags) -> None:
+  f.string("checkpoint", None, "A fitted low-dim checkpoint of a simulated task (a run's round0/<name>/ckpt).")
+  f.list("rates", ["10", "30"], "The robot's control rates, Hz.")
+  f.float("delay_ms", 50.0, "Delay injected each way between the robot and the server, ms.", lower_bound=0.0)
+  f.integer("states", 50, "Paired start states, the same for every rate and loop.", lower_bound=1)
+  f.integer("seed", 0, "The start states' seed.")
+  f.list("loops", list(realtime_bench.LOOPS), "The loops compared: blocking, realtime.")
+  f.integer("threshold", -1, "Real-time chunks: ask for the next chunk at this many actions left (-1: half).",
+            lower_bound=-1)  # fmt: skip
+  f.enum("aggregate", "latest", list(client_lib.AGGREGATES), "Real-time chunks: how overlapping chunks combine.")
+  f.string("mode", "base", "The server's mode: base, soe or sime.")
+  f.boolean("progress", True, "A line per episode.")
+  f.string("out", None, "Also write the result as a record (for results/) here.")
+
+
+def _realtime(f: cli.Flags, argv: list[str]) -> dict:
+  if not f.checkpoint:
+    raise cli.UsageError("--checkpoint is required: a fitted low-dim checkpoint of a simulated task")
+  try:
+    rates = tuple(float(r) for r in f.rates)
+  except ValueError:
+    raise cli.UsageError(f"--rates takes numbers separated by commas; got {','.join(f.rates)}") from None
+  if bad := [r for r in rates if not r > 0]:
+    raise cli.UsageError(f"--rates: a rate is a number of Hz > 0, got {bad[0]:g}")
+  if bad := [x for x in f.loops if x not in realtime_bench.LOOPS]:
+    raise cli.UsageError(f"--loops: unknown loop {bad[0]!r}; known: {', '.join(realtime_bench.LOOPS)}")
+  settings = client_lib.RealTime(None if f.threshold < 0 else f.threshold, f.aggregate)
+  source = provenance.header(argv)  # the code as it was when the measurement started
+  say = (lambda line: print(line, file=sys.stderr, flush=True)) if f.progress else None
+  try:
+    result = realtime_bench.run(f.checkpoint, rates, f.delay_ms, f.states, f.seed, tuple(f.loops), settings, f.mode,
+                                say)  # fmt: skip
+  except (FileNotFoundError, ValueError) as e:
+    raise cli.UsageError(str(e)) from None
+  if f.out:
+    records.write_record(dict(source, realtime=result), f.out, "realtime")
+  return result
+
+
 BENCHMARKS = {
   "env": Benchmark(
     "environment throughput: control steps per second summed over a batch",
@@ -274,6 +318,18 @@ requests after --warmup, over loopback and in-process, compile apart.
     _serve_flags,
     _serve,
     config=True,
+  ),
+  "realtime": Benchmark(
+    "real-time chunks against the blocking loop, the simulator as a robot at its own rate",
+    """Real-time chunks against the blocking loop (`soe_jax/bench/realtime.py`): the simulator advances one
+control step per wall-clock tick at each --rates whether or not an action is ready (holding the last
+command), --delay_ms injected each way; idle time per second, dropped actions, success on --states
+paired start states, the machine's load.
+
+  python -m soe_jax bench realtime --checkpoint=RUN/round0/<name>/ckpt [--rates=10,30 --delay_ms=50 --states=50]
+      [--loops=blocking,realtime --threshold=-1 --aggregate=latest|ensemble] [--out=results/realtime/<name>.json]""",
+    _realtime_flags,
+    _realtime,
   ),
 }
 

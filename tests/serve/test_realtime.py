@@ -201,3 +201,15 @@ def test_bad_executed_actions_are_one_line_errors(served):
   ]:  # fmt: skip
     with pytest.raises(session.RequestError, match=message):
       s.infer(dict(since, **extra))
+
+
+def test_a_realtime_record_gets_a_table():
+  from soe_jax.analysis import records
+
+  part = dict(delay_ms_each_way=50.0, load_before=[1.5, 1.0, 1.0], load_after=[1.75, 1.0, 1.0], results=[
+    dict(hz=10.0, loop="blocking", idle_s_per_s=0.14, dropped_per_episode=0.0, replaced=0, requests=6,
+         success_rate=0.5, success=[1, 0]),
+    dict(hz=10.0, loop="realtime", idle_s_per_s=0.04, dropped_per_episode=10.0, replaced=1, requests=12,
+         success_rate=1.0, success=[1, 1])])  # fmt: skip
+  out = records.table([("lift", dict(kind="realtime", realtime=part, machine="2 cores"))])
+  assert "| lift | 10 Hz | realtime | 50 ms | 0.040 s | 10.0 | 1 | 12 | 100.0% of 2 | 1.50 / 1.75 | 2 cores |" in out
