@@ -25,7 +25,7 @@ COMMANDS = {
   "experts": "scripted demonstrations of a task, optionally saved to HDF5",
   "export": "a run's data as robomimic HDF5, Diffusion Policy zarr, RLDS or LeRobotDataset",
   "inspect": "what a data file (HDF5, zarr, RLDS, LeRobotDataset) holds",
-  "bench": "performance benchmarks: env, mjx, fit, encoder, sample, rollout, torch",
+  "bench": "performance benchmarks: env, mjx, fit, encoder, sample, rollout, torch, serve, realtime",
 }
 # The studies' own command names: `python -m soe_jax NAME` runs `python -m soe_jax study NAME`.
 STUDY_COMMANDS = ("converge", "latent", "fidelity", "kept", "action_range", "round0", "relabel", "calibrate")

@@ -195,7 +195,7 @@ def apply_presets(
   policy to succeed on the 20-80% of start states the experiment wants, or a longer fit to converge.
   `cpu_image_demos` (default `cpu_demos`), `cpu_image_steps`: the same under `cpu,image`.
   `smoke_episode_length`: the episodes' length under `smoke` (None: the task's own, for a demonstrator
-  that needs it to succeed at all)."""
+  that needs it to succeed at all; varied demonstrations, as under `cpu`, always have the task's own)."""
   presets = parse_arg(arg)
   methods = [m for m in METHODS if presets.get(m)]
   if len(methods) > 1:
@@ -259,7 +259,9 @@ def apply_presets(
     config_sections.smoke_recipe(c)
     c.data.num_demos = min(c.data.num_demos, 4)
     c.data.capacity = 64
-    c.env.episode_length = smoke_episode_length or c.env.episode_length
+    # (Varied demonstrations keep the task's horizon: their styles' slower paces need 40-80 steps on Lift.)
+    if c.data.demo_style != "varied":
+      c.env.episode_length = smoke_episode_length or c.env.episode_length
     c.explore.update(num_start_states=3, tries=2)
     if steer is not None:
       steer.update(num_proposals=4, num_choices=2, max_dims=2, snr_windows=64)

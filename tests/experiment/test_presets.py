@@ -172,3 +172,10 @@ def test_a_misspelled_override_suggests_the_field():
     "fit.stepz (did you mean fit.num_steps?)",
     "rounds.num_round (did you mean rounds.num_rounds?)",
   ]
+
+
+def test_smoke_keeps_the_task_horizon_for_varied_demonstrations():
+  """`cpu,smoke` draws varied demonstrations, whose slower styles need 40-80 of Lift's steps: smoke's
+  24-step episodes left the demonstrator short of its successes (the run stopped with a traceback)."""
+  assert configfile.load("configs/lift.py:smoke").env.episode_length == 24
+  assert configfile.load("configs/lift.py:cpu,smoke").env.episode_length == 400

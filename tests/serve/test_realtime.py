@@ -3,7 +3,6 @@ actions dropped; the robot-side helper asking for the next chunk while executing
 server with delay injected each way, recording exactly the actions executed with the observations
 they were executed from; such episodes re-fit on every window; the blocking loop unchanged."""
 
-import time
 
 import numpy as np
 import pytest
@@ -131,9 +130,7 @@ def _episode(server, realtime, steps: int, delay: float = 0.02):
 @pytest.mark.parametrize("aggregate", ["latest", "ensemble"])
 def test_real_time_chunks_record_what_was_executed_from_what_was_observed(served, aggregate):
   server, spec, rec = served
-  start = time.monotonic()
   robot, policy, runner, out = _episode(server, client.RealTime(threshold=4, aggregate=aggregate), steps=30)
-  elapsed = time.monotonic() - start
   assert out["written"]
   ep = lerobot.read_dataset(rec.dataset)[1][out["dataset_episode"]]
   # Every tick is a frame: the action sent then (new or held) and the observation it was sent from.
@@ -141,8 +138,6 @@ def test_real_time_chunks_record_what_was_executed_from_what_was_observed(served
   np.testing.assert_allclose(ep["actions"], np.stack(robot.acted), atol=1e-6)
   np.testing.assert_array_equal(ep["obs"][STATE][:, 0], np.arange(30))  # one command more per frame
   np.testing.assert_array_equal(ep["obs"][STATE], np.stack(robot.observed[:30]))
-  # Paced by the replies' timestamps (25 Hz), not by the requests: 30 ticks in about 1.2 s after the first chunk.
-  assert elapsed < 30 * 0.04 + 1.0
   # The next chunk was asked for while this one executed, and those due before its reply came were dropped.
   sent = policy.sent[1:-1]
   assert runner.stats["requests"] == len(policy.sent) - 1 > 2 and runner.stats["dropped"] > 0
