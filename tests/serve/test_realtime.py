@@ -3,7 +3,6 @@ actions dropped; the robot-side helper asking for the next chunk while executing
 server with delay injected each way, recording exactly the actions executed with the observations
 they were executed from; such episodes re-fit on every window; the blocking loop unchanged."""
 
-
 import numpy as np
 import pytest
 import websockets.sync.client as ws_client
