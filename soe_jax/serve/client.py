@@ -36,7 +36,6 @@ Two loops (`EpisodeRunner(..., realtime=None | RealTime(...))`):
 from __future__ import annotations
 
 import concurrent.futures
-import dataclasses
 import time
 
 import numpy as np
@@ -62,25 +61,24 @@ def _is_camera(observations: list, key) -> bool:
   return all(v.dtype == np.uint8 and v.ndim == 3 and v.shape[-1] == 3 and v.shape == values[0].shape for v in values)
 
 
-@dataclasses.dataclass(frozen=True)
 class RealTime:
   """Real-time chunks' settings: ask for the next chunk once at most `threshold` actions of those
   scheduled remain (None: half the chunk, `action_horizon // 2`); where chunks overlap, execute the
   newest chunk's action (`aggregate="latest"`) or ACT's temporal ensemble (`"ensemble"`: the average
-  weighted by exp(-ensemble_k * i), i = 0 for the oldest chunk; ACT's and SIME's k = 0.01)."""
+  weighted by exp(-ensemble_k * i), i = 0 for the oldest chunk; ACT's and SIME's k = 0.01).
+  (A plain class, not a dataclass: this file is loaded from its path too, outside `sys.modules`.)"""
 
-  threshold: int | None = None
-  aggregate: str = "latest"
-  ensemble_k: float = 0.01
+  def __init__(self, threshold: int | None = None, aggregate: str = "latest", ensemble_k: float = 0.01):
+    if aggregate not in AGGREGATES:
+      raise ValueError(f"unknown aggregate {aggregate!r}; known: {', '.join(AGGREGATES)}")
+    if threshold is not None and (isinstance(threshold, bool) or not isinstance(threshold, int) or threshold < 0):
+      raise ValueError(f"threshold must be a whole number of actions >= 0 (or None), got {threshold!r}")
+    if not np.isfinite(ensemble_k) or ensemble_k < 0:
+      raise ValueError(f"ensemble_k must be a number >= 0, got {ensemble_k!r}")
+    self.threshold, self.aggregate, self.ensemble_k = threshold, aggregate, float(ensemble_k)
 
-  def __post_init__(self):
-    if self.aggregate not in AGGREGATES:
-      raise ValueError(f"unknown aggregate {self.aggregate!r}; known: {', '.join(AGGREGATES)}")
-    if self.threshold is not None and (isinstance(self.threshold, bool) or not isinstance(self.threshold, int)
-                                       or self.threshold < 0):  # fmt: skip
-      raise ValueError(f"threshold must be a whole number of actions >= 0 (or None), got {self.threshold!r}")
-    if not np.isfinite(self.ensemble_k) or self.ensemble_k < 0:
-      raise ValueError(f"ensemble_k must be a number >= 0, got {self.ensemble_k!r}")
+  def __repr__(self) -> str:
+    return f"RealTime(threshold={self.threshold!r}, aggregate={self.aggregate!r}, ensemble_k={self.ensemble_k!r})"
 
 
 class Schedule:

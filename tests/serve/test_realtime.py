@@ -3,6 +3,9 @@ actions dropped; the robot-side helper asking for the next chunk while executing
 server with delay injected each way, recording exactly the actions executed with the observations
 they were executed from; such episodes re-fit on every window; the blocking loop unchanged."""
 
+import importlib.util
+import sys
+
 import numpy as np
 import pytest
 import websockets.sync.client as ws_client
@@ -207,3 +210,12 @@ def test_a_realtime_record_gets_a_table():
          success_rate=1.0, success=[1, 1])])  # fmt: skip
   out = records.table([("lift", dict(kind="realtime", realtime=part, machine="2 cores"))])
   assert "| lift | 10 Hz | realtime | 50 ms | 0.040 s | 10.0 | 1 | 12 | 100.0% of 2 | 1.50 / 1.75 | 2 cores |" in out
+
+
+def test_the_helper_loads_from_its_file_alone():
+  """The robot's side copies `client.py` and loads it by path, outside `sys.modules` (the LeRobot
+  example, openpi's environment): nothing in it may need its module registered."""
+  spec = importlib.util.spec_from_file_location("copied_helper", client.__file__)
+  module = importlib.util.module_from_spec(spec)
+  spec.loader.exec_module(module)
+  assert module.RealTime(threshold=2).threshold == 2 and "copied_helper" not in sys.modules
