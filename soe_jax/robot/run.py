@@ -215,7 +215,7 @@ def refit(workdir: str, recorded: str, progress: bool = True, mode: str | None =
   re-fitted (`rounds.refit`, or `mode`) -> the round's record. `overrides` {"rounds.<field>": value}
   change the run's re-fit fields for this round (recorded in its fit.json). Running it again after
   an interruption continues the same round, with the same overrides. Windows aligned to decisions
-  (`rounds.aligned_windows`) need every recorded episode's decisions (`aligned_decisions`); without
+  (`rounds.aligned_windows`) need every recorded episode's decisions (`_without_decisions`); without
   them the re-fit draws every window, with a warning."""
   config = saved_config(workdir)
   overrides = {robot_config.upgrade_field(k): v for k, v in (overrides or {}).items()}
@@ -281,15 +281,18 @@ def _without_decisions(sets: list[EpisodeSet], n_action_steps: int) -> list[str]
   steps from the first (a client that executed part of a chunk), or where the frames from one decision
   to the next came from more than one request (`request_key`: a client with real-time chunks, which
   executes an earlier chunk's actions at a decision and aggregates overlapping chunks)."""
-  out = []
-  for s in sets:
-    for ep in s.episodes:
-      decision = ep["columns"].get("decision")
-      every = np.arange(len(ep["actions"])) % n_action_steps == 0
-      if decision is None or not np.array_equal(np.asarray(decision), every.astype(np.asarray(decision).dtype)):
-        out.append(f"round {s.source} episode {ep['episode_index']}")
-      elif (key := ep["columns"].get("request_key")) is not None and any(
-        len(np.unique(np.asarray(key)[i : i + n_action_steps, 3])) > 1 for i in np.flatnonzero(every)
-      ):
-        out.append(f"round {s.source} episode {ep['episode_index']}")
-  return out
+  return [f"round {s.source} episode {ep['episode_index']}" for s in sets for ep in s.episodes
+          if not _at_decisions(ep, n_action_steps)]  # fmt: skip
+
+
+def _at_decisions(ep: dict, n_action_steps: int) -> bool:
+  """Whether a recorded episode's decisions are every `n_action_steps` frames from the first, each
+  span between two from one request (`_without_decisions`)."""
+  decision = ep["columns"].get("decision")
+  every = np.arange(len(ep["actions"])) % n_action_steps == 0
+  if decision is None or not np.array_equal(np.asarray(decision), every.astype(np.asarray(decision).dtype)):
+    return False
+  key = ep["columns"].get("request_key")
+  return key is None or all(
+    len(np.unique(np.asarray(key)[i : i + n_action_steps, 3])) == 1 for i in np.flatnonzero(every)
+  )
