@@ -159,6 +159,8 @@ def serve_table(records: Records) -> str:
     s = r["serve"]
     ms = lambda d: f"{d['p50']:.1f} / {d['p95']:.1f} ms"
     policy = f"{s['task']} {s['obs_encoder']} {s['down_dims']}" + (f", images {s['images']}" if s["images"] else "")
+    if s.get("sent", s["images"]) != s["images"]:  # (records before `sent`: the policy's own size)
+      policy += f" sent as {s['sent']}"
     rows.append([name, policy, s["requests"], f"{s['compile_s']:.1f} s", ms(s["in_process_ms"]), ms(s["round_trip_ms"]),
                  f"{s['wire_overhead_ms']:.1f} ms", f"{s['request_bytes']:,} B", r["machine"]])  # fmt: skip
   header = ["record", "policy", "requests", "compile", "in-process p50 / p95", "round trip p50 / p95",

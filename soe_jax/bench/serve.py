@@ -23,13 +23,18 @@ from soe_jax.serve.server import PolicyServer
 TOKEN = "bench"
 
 
-def _observations(spec, n: int, rng) -> list[dict]:
+def _observations(spec, n: int, rng, camera_size: tuple[int, int] | None = None) -> list[dict]:
+  """`camera_size`: (height, width) each camera sends (the server resizes it to the policy's with
+  padding); None: the policy's own size."""
   out = []
   for i in range(n):
     obs = {}
     for k, v in spec.observations.items():
-      shape = v["shape"]
-      obs[k] = rng.integers(0, 256, shape, np.uint8) if v.get("image") else rng.normal(0, 0.1, shape).astype(np.float32)
+      if v.get("image"):
+        shape = (*camera_size, v["shape"][-1]) if camera_size else v["shape"]
+        obs[k] = rng.integers(0, 256, shape, np.uint8)
+      else:
+        obs[k] = rng.normal(0, 0.1, v["shape"]).astype(np.float32)
     out.append(dict(obs, episode_start=i % 50 == 0, timestamp=0.1 * i))
   return out
 
@@ -39,7 +44,12 @@ def _ms(times) -> dict:
   return dict(p50=round(float(np.percentile(t, 50)), 2), p95=round(float(np.percentile(t, 95)), 2))
 
 
-def serve(config: ml_collections.ConfigDict, requests: int = 200, warmup: int = 20) -> dict:
+def serve(
+  config: ml_collections.ConfigDict, requests: int = 200, warmup: int = 20, camera_size: tuple[int, int] | None = None
+) -> dict:
+  """`camera_size`: (height, width) of the images each request carries, as a robot's cameras send them
+  (the server resizes them to the policy's size, `serve.session`, and the time includes it); None: the
+  policy's own size."""
   spec, policy = task.spec(config), task.policy(config)
   rng = np.random.default_rng(0)
   # A normaliser over the spec's action box, so the sampled chunks are inside it (the server checks).
@@ -47,7 +57,7 @@ def serve(config: ml_collections.ConfigDict, requests: int = 200, warmup: int = 
   actions = rng.uniform(-0.1, 0.1, (64, policy.action_dim))
   norm = normalizer_lib.fit(obs_frames, actions, action_box=spec.action_bounds(), ranged=spec.ranged_action_dims())
   agent = Agent(policy, policy.init(jax.random.key(0)), norm)
-  observations = _observations(spec, warmup + requests, rng)
+  observations = _observations(spec, warmup + requests, rng, camera_size)
 
   t = time.perf_counter()
   session_lib.warm_up(agent, spec)
@@ -83,6 +93,7 @@ def serve(config: ml_collections.ConfigDict, requests: int = 200, warmup: int = 
     obs_encoder=config.policy.encoder.name,
     down_dims=list(config.policy.head.kwargs.get("down_dims", [])),
     images=[list(spec.observations[k]["shape"]) for k in spec.image_keys],
+    sent=[list(observations[0][k].shape) for k in spec.image_keys],
     request_bytes=len(wire.packb(observations[0])),
     requests=requests,
     warmup=warmup,

@@ -12,7 +12,8 @@
   python -m soe_jax bench sample --config=configs/square.py --batch=1 --steps=10
   python -m soe_jax bench rollout --config=configs/lift.py:cpu --strategy=soe --num_envs=100
   python -m soe_jax bench torch --down_dims=256,512,1024 --step_embed_dim=256 --batch=256
-  python -m soe_jax bench serve --config=configs/lift.py:cpu [--requests=200] [--out=results/serve/<name>.json]
+  python -m soe_jax bench serve --config=configs/lift.py:cpu [--requests=200] [--camera_size=216,288]
+      [--out=results/serve/<name>.json]
   python -m soe_jax bench realtime --checkpoint=RUN/round0/<name>/ckpt [--rates=10,30 --delay_ms=50 --states=50]
       [--out=results/realtime/<name>.json]
 
@@ -189,12 +190,23 @@ def _serve_flags(f: cli.Flags) -> None:
   f.config_flag()
   f.integer("requests", 200, "Timed requests.", lower_bound=1)
   f.integer("warmup", 20, "Requests before the timed ones.", lower_bound=0)
+  f.string(
+    "camera_size", None, "HEIGHT,WIDTH of the images sent (e.g. 216,288; the server resizes them): the policy's own."
+  )
   f.string("out", None, "Also write the result as a record (for results/) here.")
 
 
 def _serve(f: cli.Flags, argv: list[str]) -> dict:
+  camera_size = None
+  if f.camera_size:
+    try:
+      camera_size = tuple(int(x) for x in f.camera_size.split(","))
+    except ValueError:
+      camera_size = ()
+    if len(camera_size) != 2 or min(camera_size) < 1:
+      raise cli.UsageError(f"--camera_size={f.camera_size}: expected HEIGHT,WIDTH, e.g. 216,288")
   source = provenance.header(argv)  # the code as it was when the measurement started
-  result = serve_bench.serve(f.config, f.requests, f.warmup)
+  result = serve_bench.serve(f.config, f.requests, f.warmup, camera_size)
   if f.out:
     records.write_record(dict(source, serve=result), f.out, "serve")
   return result

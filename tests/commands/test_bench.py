@@ -4,6 +4,7 @@ replaced)."""
 
 import json
 
+import numpy as np
 import pytest
 
 from soe_jax.commands import bench
@@ -54,12 +55,35 @@ def test_help_lists_the_benchmarks_and_each_one_only_its_flags(capsys):
     (["env", "--unbatched"], "--unbatched runs one environment: add --num_envs=1"),
     (["env", "--task=stack"], "flag --task=stack: value should be one of"),
     (["encoder", "--widths=64,wide"], "--widths takes integers"),
+    (["serve", "--config=configs/lift.py:smoke", "--camera_size=216"], "--camera_size=216: expected HEIGHT,WIDTH"),
     (["env", "extra"], "unexpected arguments: extra"),
   ],
 )
 def test_a_mistake_is_one_line_and_exit_status_2(argv, message, capsys):
   code, out, err = _exit(argv, capsys)
   assert code == 2 and out == "" and err.startswith("error: ") and message in err and err.count("\n") == 1, err
+
+
+def test_bench_serve_sends_the_cameras_at_the_size_asked_and_tables_it(monkeypatch, capsys):
+  """`--camera_size` reaches the benchmark, whose requests carry every camera at that size; the table
+  says the images were sent at it."""
+  from configs import lift as lift_config
+  from soe_jax.analysis import records
+  from soe_jax.bench import serve as serve_bench
+  from soe_jax.experiment import task
+
+  spec = task.spec(lift_config.get_config("smoke,image"))
+  obs = serve_bench._observations(spec, 2, np.random.default_rng(0), (216, 288))
+  assert spec.image_keys and all(
+    o[k].shape == (216, 288, 3) and o[k].dtype == np.uint8 for o in obs for k in spec.image_keys
+  )
+  monkeypatch.setattr(serve_bench, "serve", lambda config, requests, warmup, camera_size: dict(camera_size=camera_size))
+  bench.main(["python -m soe_jax bench", "serve", "--config=configs/lift.py:smoke,image", "--camera_size=216,288"])
+  assert json.loads(capsys.readouterr().out.splitlines()[-1]) == dict(camera_size=[216, 288])
+  ms = dict(p50=1.0, p95=2.0)
+  s = dict(task="lift", obs_encoder="image", down_dims=[8], images=[[84, 84, 3]], sent=[[216, 288, 3]], requests=5,
+           compile_s=1.0, in_process_ms=ms, round_trip_ms=ms, wire_overhead_ms=0.0, request_bytes=1)  # fmt: skip
+  assert "images [[84, 84, 3]] sent as [[216, 288, 3]]" in records.serve_table([("r", dict(serve=s, machine="m"))])
 
 
 def test_the_record_of_out_names_the_command_as_typed(tmp_path, monkeypatch, capsys):
