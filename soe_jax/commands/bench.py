@@ -324,9 +324,10 @@ CPUs; needs `pip install torch` (not a dependency).
   "serve": Benchmark(
     "the policy server's latency per chunk over loopback against in-process",
     """The policy server's latency per chunk (`soe_jax/bench/serve.py`): p50 / p95 over --requests
-requests after --warmup, over loopback and in-process, compile apart.
+requests after --warmup, over loopback and in-process, compile apart; --camera_size sends each camera at a
+robot's size, which the server resizes to the policy's.
 
-  python -m soe_jax bench serve --config=configs/lift.py:cpu [--out=results/serve/<name>.json]""",
+  python -m soe_jax bench serve --config=configs/lift.py:cpu [--camera_size=216,288] [--out=results/serve/<name>.json]""",
     _serve_flags,
     _serve,
     config=True,
