@@ -40,13 +40,13 @@ def test_im2col_convolutions_match_xlas():
   x = jax.random.normal(jax.random.PRNGKey(0), (2, 19, 19, 5))
   for k, stride, pad in ((7, 2, 3), (3, 1, 1), (3, 2, 1), (1, 2, 0)):
     conv = resnet.Conv(4, k, stride, padding=pad)
-    params = conv.init(jax.random.PRNGKey(1), x)
+    params = jax.jit(conv.init)(jax.random.PRNGKey(1), x)
     w = params["params"]["kernel"]
     assert w.shape == (k, k, 5, 4)  # flax's nn.Conv layout
     reference = jax.lax.conv_general_dilated(
       x, w, (stride, stride), [(pad, pad)] * 2, dimension_numbers=("NHWC", "HWIO", "NHWC")
     )
-    np.testing.assert_allclose(conv.apply(params, x), reference, rtol=1e-4, atol=1e-4)
+    np.testing.assert_allclose(jax.jit(conv.apply)(params, x), reference, rtol=1e-4, atol=1e-4)
 
 
 def test_shared_trunk_encodes_each_camera_as_its_own_trunk_would():
@@ -56,10 +56,10 @@ def test_shared_trunk_encodes_each_camera_as_its_own_trunk_would():
     "lowdim": jnp.ones((2, 1, 3)),
   }
   shared = resnet.ImageEncoder(cameras=cams, crop_size=16, widths=(8, 8, 8, 8), shared=True)
-  params = shared.init(jax.random.PRNGKey(0), obs)
+  params = jax.jit(shared.init)(jax.random.PRNGKey(0), obs)  # (compiled: eagerly, each layer compiles alone)
   assert list(params["params"]) == ["camera"]  # one trunk, not one per camera
-  out = shared.apply(params, obs)
+  out = jax.jit(shared.apply)(params, obs)
   two = resnet.ImageEncoder(cameras=cams, crop_size=16, widths=(8, 8, 8, 8))
   same = {"params": {f"camera_{i}": params["params"]["camera"] for i in range(2)}}
-  np.testing.assert_allclose(out, two.apply(same, obs), rtol=1e-5, atol=1e-6)
+  np.testing.assert_allclose(out, jax.jit(two.apply)(same, obs), rtol=1e-5, atol=1e-6)
   assert out.shape == (2, 2 * 64 + 3)
