@@ -34,7 +34,8 @@ def _setup(ema=True):
   norm = normalizer.fit(obs.reshape(-1, obs_dim), actions.reshape(-1, 10))
   policy = make_policy(config.policy, obs_dim, 10)
   tx = train_state.make_optimizer(config.fit, config.fit.num_steps)
-  state = train_state.create(policy.init(jax.random.PRNGKey(0)), tx, norm, ema=ema)
+  params = jax.jit(policy.init)(jax.random.PRNGKey(0))  # compiled: eager initialisation takes seconds
+  state = train_state.create(params, tx, norm, ema=ema)
   return config, policy, tx, state, buf
 
 
