@@ -10,7 +10,7 @@ import pytest
 # (submitit's log handlers take the streams of when it is imported: these, not a test's captured ones)
 import soe_jax.analysis.slurm  # noqa: F401
 from configs import lift as lift_config
-from soe_jax.analysis import aggregate, campaign, results
+from soe_jax.analysis import aggregate, campaign, report, results
 from soe_jax.experiment import phases
 from soe_jax.experiment.rundir import RunDir
 from soe_jax.runtime.errors import UserError
@@ -18,16 +18,18 @@ from soe_jax.train import checkpoint
 from tests.experiment import toy, toy_config
 
 
-def test_every_round_and_method_evaluates_same_states_and_keys(smoke_run):
-  """Every round and method is evaluated on the same states with the same keys."""
-  _, config, workdir, _ = smoke_run
+def test_every_round_and_method_evaluates_same_states_and_keys(toy_run, toy_task):
+  """Every round and method is evaluated on the same states with the same keys (the loop's logic: the
+  toy task's run)."""
+  _, config, workdir = toy_run
   state = checkpoint.load(RunDir(workdir, config).ckpt_dir(0)).state
   outputs = []
   for method, r in (("soe", 0), ("soe", 2), ("dp", 1)):
-    c = lift_config.get_config(f"smoke,{method}")
+    c = toy.get_config(f"smoke,{method}")
     exp = phases.Experiment(c, RunDir(workdir, c), progress=False)
     outputs.append(exp.evaluate(state, r))
   assert outputs[0] == outputs[1] == outputs[2]  # outcomes, jerk, lengths: the same episodes
+  report.write(workdir)
   saved = json.load(open(os.path.join(workdir, "outcomes.json")))  # and the run recorded them per state
   assert saved["evaluate"]["0"] == outputs[0]["success"] and sorted(saved["evaluate"]) == ["0", "1", "2"]
   assert len(saved["explore"]["1"]) == config.explore.num_start_states * config.explore.tries
@@ -184,6 +186,26 @@ def test_a_campaign_runs_its_methods_and_exports_their_commands(tmp_path):
   with pytest.raises(UserError, match=r"methods 'soe' and 'soe,beta=1e-05' are the same arm 'soe'"):
     campaign.campaign("configs/lift.py:cpu", {}, ["soe", "soe+beta=1e-05"], str(tmp_path / "x"), str(results), False)
   assert not os.path.exists(tmp_path / "x")
+
+
+def test_compare_explores_each_method_from_round0(toy_run, toy_task):
+  """`compare` explores each method as its preset says, from the run's shared round 0 (the toy task's
+  run: the driver's logic)."""
+  from soe_jax.analysis import compare
+  from soe_jax.runtime import configfile
+
+  root, config, workdir = toy_run
+  overrides = {"seed": config.seed, "explore.num_start_states": 2, "explore.tries": 2}
+  spec = f"{toy_config.__file__}:smoke"
+  configs = {m: configfile.load(spec, m, overrides) for m in ("dp", "soe_steer")}
+  assert configs["soe_steer"].explore.strategy.kwargs.num_proposals == 4  # the smoke preset's steering
+  rows = compare.compare(configs, str(root / "compare"), progress=False)
+  assert [(r["method"], r["strategy"], r["k"], r["episodes"]) for r in rows] == [("dp", "dp", 2, 4),
+                                                                              ("soe_steer", "soe_steer", 2, 4)]  # fmt: skip
+  saved = json.load(open(os.path.join(root, "compare", "compare.json")))
+  base = json.load(open(os.path.join(RunDir(workdir, config).round0, "evaluate.json")))
+  assert saved["base"]["success_rate"] == base["success_rate"]  # the fixture's round 0, not a new fit
+  assert "| soe_steer |" in open(os.path.join(root, "compare", "compare.md")).read()
 
 
 def test_a_campaigns_seed_is_the_configs_unless_overridden():

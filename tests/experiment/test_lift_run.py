@@ -1,6 +1,6 @@
 """A real task's run end to end: Lift's smoke run (the `smoke_run` fixture), what it leaves (metrics,
-report, plots, data), and the analyses that read a run or run beside it (aggregate, compare, converge,
-latent). The run's logic itself is tested on the toy task (`test_loop.py`)."""
+report, plots, data), and the analyses that read a run or run beside it (aggregate, converge, latent).
+The run's logic itself is tested on the toy task (`test_loop.py`; `compare` in analysis/test_campaign.py)."""
 
 import json
 import os
@@ -70,24 +70,6 @@ def test_aggregate_table_over_runs(smoke_run, tmp_path):
     "| lift | soe | explore.strategy.kwargs.alpha=2.0 | 1 |" in md
     and "| lift | soe | explore.strategy.kwargs.alpha=3.0 | 1 |" in md
   )
-
-
-def test_compare_explores_each_method_from_round0(smoke_run):
-  """`compare` explores each method as its preset says, from the run's shared round 0."""
-  from soe_jax.analysis import compare
-  from soe_jax.runtime import configfile
-
-  root, config, workdir, _ = smoke_run
-  overrides = {"seed": config.seed, "explore.num_start_states": 2, "explore.tries": 2}
-  configs = {m: configfile.load("configs/lift.py:smoke", m, overrides) for m in ("dp", "soe_steer")}
-  assert configs["soe_steer"].explore.strategy.kwargs.num_proposals == 4  # the smoke preset's steering
-  rows = compare.compare(configs, str(root / "compare"), progress=False)
-  assert [(r["method"], r["strategy"], r["k"], r["episodes"]) for r in rows] == [("dp", "dp", 2, 4),
-                                                                              ("soe_steer", "soe_steer", 2, 4)]  # fmt: skip
-  saved = json.load(open(os.path.join(root, "compare", "compare.json")))
-  base = json.load(open(os.path.join(RunDir(workdir, config).round0, "evaluate.json")))
-  assert saved["base"]["success_rate"] == base["success_rate"]  # the fixture's round 0, not a new fit
-  assert "| soe_steer |" in open(os.path.join(root, "compare", "compare.md")).read()
 
 
 @pytest.mark.slow
