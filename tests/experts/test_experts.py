@@ -12,11 +12,20 @@ from soe_jax.data import hdf5
 from soe_jax.experts import collect, transport, variety
 from soe_jax.experts.registry import EXPERTS, make_expert
 
+# Lift's 24 start states for the scripted and the varied demonstrator (one compiled program each).
+LIFT_KEYS = jax.random.split(jax.random.PRNGKey(3), 24)
 
-def test_lift_demonstrations_succeed_and_vary(jitted_env):
+
+@pytest.fixture(scope="module")
+def scripted_lift(jitted_env):
+  """The scripted demonstrator's batch on Lift's 24 start states: (env, batch)."""
   env, _, _ = jitted_env("lift")
-  keys = jax.random.split(jax.random.PRNGKey(0), 8)
-  batch = collect.run_demos(env, make_expert("lift"), keys, progress=False)
+  return env, collect.run_demos(env, make_expert("lift"), LIFT_KEYS, progress=False)
+
+
+def test_lift_demonstrations_succeed_and_vary(scripted_lift):
+  env, batch = scripted_lift
+  keys = LIFT_KEYS
   assert batch["success"].all()
   assert batch["length"].std() > 0  # randomised timing
   episodes = collect.split_episodes(batch)
@@ -34,14 +43,13 @@ def test_lift_demonstrations_succeed_and_vary(jitted_env):
   np.testing.assert_array_equal(batch["actions"], again["actions"])
 
 
-def test_the_varied_lift_demonstrator_arcs_both_ways_grasps_both_faces_and_hovers(jitted_env):
+def test_the_varied_lift_demonstrator_arcs_both_ways_grasps_both_faces_and_hovers(scripted_lift):
   """`style=varied`: on 24 start states every episode succeeds, and the measured styles (read from the
   commanded actions alone) show arcs to each side, both face pairs and hovers, none of which the
   scripted demonstrator's episodes from the same states show (its faces follow the cube's yaw)."""
-  env, _, _ = jitted_env("lift")
-  keys = jax.random.split(jax.random.PRNGKey(3), 24)
-  varied = variety.measure(collect.run_demos(env, make_expert("lift", "varied"), keys, progress=False))
-  scripted = variety.measure(collect.run_demos(env, make_expert("lift"), keys, progress=False))
+  env, batch = scripted_lift
+  varied = variety.measure(collect.run_demos(env, make_expert("lift", "varied"), LIFT_KEYS, progress=False))
+  scripted = variety.measure(batch)
   assert varied["success_rate"] == 1.0
   assert min(varied["arc_left"], varied["arc_right"], varied["face_0"], varied["face_1"], varied["paused"]) > 0.1
   assert scripted["straight"] == 1.0 and scripted["paused"] == 0.0
