@@ -33,17 +33,18 @@ def test_the_same_with_a_96_by_128_camera(tmp_path):
   _check(_run(tmp_path, "--image"))
 
 
-def test_bad_robot_inputs_are_one_line_and_write_nothing(tmp_path):
+def test_bad_robot_inputs_are_one_line_and_write_nothing(tmp_path, capsys):
   """A dataset missing a key the config names, an action layout that does not fit, a missing dataset:
   one `error:` line, exit status 2, no workdir written."""
   import numpy as np
 
+  from soe_jax import __main__ as entry
   from soe_jax.data import lerobot
   from tests.robot import synthetic
 
   data = str(tmp_path / "demos")
   lerobot.write_dataset(data, synthetic.episodes(np.random.default_rng(0), 2, 12, False), fps=10)
-  base = [sys.executable, "-m", "soe_jax", "fit", "--config=configs/robot.py:smoke", f"--workdir={tmp_path / 'run'}"]
+  base = ["soe_jax", "fit", "--config=configs/robot.py:smoke", f"--workdir={tmp_path / 'run'}"]
   for extra, message in [
     ([f"--config.dataset.path={data}", "--config.dataset.observations=('observation.wrist',)"],
      "no feature observation.wrist; its features:"),
@@ -51,9 +52,11 @@ def test_bad_robot_inputs_are_one_line_and_write_nothing(tmp_path):
      "the action feature has 10 numbers, dataset.actions lays out 4"),
     ([f"--config.dataset.path={tmp_path / 'nowhere'}"], "is not a directory"),
   ]:  # fmt: skip
-    done = subprocess.run(base + extra, capture_output=True, text=True, timeout=300)
-    assert done.returncode == 2 and done.stderr.startswith("error: ") and message in done.stderr, done.stderr
-    assert done.stderr.count("\n") == 1, done.stderr
+    with pytest.raises(SystemExit) as e:  # (in this process: a command line's process start is seconds)
+      entry.main(base + extra)
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and err.startswith("error: ") and message in err, err
+    assert err.count("\n") == 1, err
   assert not (tmp_path / "run").exists()
 
 
