@@ -23,6 +23,10 @@ Benchmarks:
 
 from soe_jax.experiment import presets
 
+# Under `quick`: every fit's steps (round 0's and the re-fit's), calibrated to a whole run of about ten minutes
+# on 2 cores.
+QUICK_STEPS = 4_000
+
 
 def get_config(arg=None):
   # Under `cpu,image`: robomimic's 10 demonstrations and a 7.5k-step fit (about 15 min of steps here),
@@ -36,4 +40,5 @@ def get_config(arg=None):
     cpu_steps=12_500,
     cpu_image_demos=10,
     cpu_image_steps=7_500,
+    quick_steps=QUICK_STEPS,
   )

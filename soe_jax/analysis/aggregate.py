@@ -40,7 +40,7 @@ def find_runs(root: str) -> list[str]:
   return sorted(found)
 
 
-def _settings(workdir: str) -> dict:
+def settings(workdir: str) -> dict:
   """The run's saved config, flattened, without what seeds, places and logs it."""
   with open(os.path.join(workdir, "config.json")) as f:
     saved = rundir.with_added(json.load(f))  # older runs lack added fields
@@ -142,7 +142,7 @@ def rows(workdirs: list[str]) -> list[dict]:
   runs = []
   for w in workdirs:
     s = report.summarize(w)
-    s["settings"], s["outcomes"] = _settings(w), _outcomes(w)
+    s["settings"], s["outcomes"] = settings(w), _outcomes(w)
     s["last"] = str(s["rounds"][-1]) if s["rounds"] else None
     runs.append(s)
   controls = _controls(runs)

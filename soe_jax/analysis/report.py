@@ -4,7 +4,8 @@
 The run's row is shaped like the paper's real-world table: Pass@k, average jerk and rollouts of the
 first exploration round (every method explores from the same round-0 policy and start states), the
 success rate before (round 0) and after (the last round) with its episode count and 95% Wilson
-interval, and the relative improvement with the absolute difference beside it.
+interval, and the relative improvement with the absolute difference beside it. Where the repository
+holds a committed campaign of the run's task and preset, the run stands beside its seeds (`context`).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from soe_jax import metrics
+from soe_jax.analysis import context
 from soe_jax.analysis.tables import markdown, pct, rate
 from soe_jax.experiment import rundir, runlog, video
 from soe_jax.runtime import atomic, faults
@@ -171,6 +173,7 @@ def _write(workdir: str) -> dict:
     "",
     *_round_wall_lines(s),
     *_paired_with_round0(outcomes["evaluate"], s["rounds"]),
+    *context.section(workdir),
     "## Per round",
     "",
     markdown(

@@ -10,8 +10,11 @@ it starts, resumes or has finished). Round 0 (demonstrations, fit, evaluation) i
 workdir, beside it: `DIR/../round0/<task>-<hash>/` (`--config.rounds.round0_dir` moves it), shared by
 every run there with the same round-0 settings, so deleting DIR keeps it. A mistake in the config is
 one line on stderr and exit status 2, before anything is written; Ctrl-C (or SIGTERM) stops with the
-finished phases and the fit in progress saved, and exit status 130. The last line printed is the run's
-summary as one JSON object.
+finished phases and the fit in progress saved, and exit status 130. The last lines printed are the
+report's path; where the repository holds a committed campaign of the run's task and preset (the same
+settings but the seed and the method: `configs/lift.py:quick`'s), the run's success beside each
+committed seed's, arm by arm, with the seed-level interval of each arm against the control; and the
+run's summary as one JSON object.
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ import json
 import os
 import sys
 
-from soe_jax.analysis import report
+from soe_jax.analysis import context, report
 from soe_jax.experiment import loop, rundir
 from soe_jax.runtime import cli
 
@@ -39,9 +42,17 @@ def _run(argv: list[str]) -> None:
   except KeyboardInterrupt:
     print(f"\ninterrupted: what was done is saved in {workdir}; run the same command to resume", file=sys.stderr)
     sys.exit(130)
+  print("\n".join(last_lines(workdir)))
+
+
+def last_lines(workdir: str) -> list[str]:
+  """Write the finished run's report -> the lines `run` prints last: the report's path, the run beside
+  the committed campaign of its task and preset where the repository holds one (as in the report), and
+  the summary as one JSON object."""
   summary = report.write(workdir)
-  print(f"report: {os.path.join(workdir, 'report.md')}")
-  print(json.dumps(summary))
+  committed = context.compare(workdir)
+  beside = [] if committed is None else ["", *context.lines(committed)]
+  return [f"report: {os.path.join(workdir, 'report.md')}", *beside, json.dumps(summary)]
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -19,6 +19,10 @@ Presets are comma-separated after the colon, e.g. `configs/square.py:cpu` or
   bypass's KL weight 1e-5 (the paper's 1e-3 otherwise) and re-fit windows aligned to the recorded
   decisions of the episodes the policy collected itself (under `protocol=continued`, the first
   campaigns' protocol, a re-fit continues for 3k steps at 3e-4 with the EMA carried on);
+- `quick`: `cpu` with every fit shortened to the task's quick steps (Lift's alone: `configs/lift.py`), 100
+  evaluation start states and 50 exploration start states (x 5 tries): the whole method in about ten
+  minutes on 2 cores, a first run to read beside the committed campaign of the same preset
+  (`analysis/context.py`, in the run's report);
 - none: paper scale (Diffusion Policy's low-dim UNet, 25k steps of AdamW 3e-4 at batch 256, DDIM-10,
   3 rounds), for accelerators (there with `--config.env.backend=mujoco`: MJX compiles and steps
   these contact-rich scenes slowly even on an H100; BENCHMARKS.md);
@@ -76,10 +80,13 @@ from soe_jax.explore import sime
 from soe_jax.policies.nets.resnet import CPU_IMAGE_WIDTHS, RESNET18_WIDTHS, SMOKE_IMAGE_WIDTHS
 from soe_jax.train import sections as config_sections
 
-PRESETS = ("smoke", "cpu", "head", "image", "expert_data", "protocol") + tuple(VARIANTS) + METHODS
+PRESETS = ("smoke", "cpu", "head", "image", "expert_data", "protocol") + tuple(VARIANTS) + METHODS + ("quick",)
 # The protocol and the demonstrations under `cpu` (docs/protocol.md's rule, applied in RESULTS.md).
 CPU_PROTOCOL = "sime"
 CPU_STYLE = "varied"
+# Under `quick`, `cpu` with fewer states: evaluation start states and exploration start states (of 5 tries each).
+QUICK_EVAL_STATES = 100
+QUICK_EXPLORE_STATES = 50
 
 
 def set_fields(c: ml_collections.ConfigDict, fields: dict) -> bool:
@@ -189,14 +196,22 @@ def apply_presets(
   cpu_image_demos: int | None = None,
   cpu_image_steps: int = 4_000,
   smoke_episode_length: int | None = 24,
+  quick_steps: int | None = None,
 ) -> ml_collections.ConfigDict:
   """`cpu_demos`, `cpu_steps`: the task's number of demonstrations and round-0 fit steps under the `cpu`
   preset: a task may need another number of demonstrations than the paper's for its converged base
   policy to succeed on the 20-80% of start states the experiment wants, or a longer fit to converge.
   `cpu_image_demos` (default `cpu_demos`), `cpu_image_steps`: the same under `cpu,image`.
   `smoke_episode_length`: the episodes' length under `smoke` (None: the task's own, for a demonstrator
-  that needs it to succeed at all; varied demonstrations, as under `cpu`, always have the task's own)."""
+  that needs it to succeed at all; varied demonstrations, as under `cpu`, always have the task's own).
+  `quick_steps`: every fit's steps under `quick` (None: the task has no `quick` run)."""
   presets = parse_arg(arg)
+  if presets.get("quick"):  # `cpu`, shorter: see below
+    if quick_steps is None:
+      raise ValueError(f"quick: no quick run is calibrated for {c.env.task}; configs/lift.py:quick is")
+    if presets.get("image"):
+      raise ValueError("quick is a low-dimensional run; it takes no image preset")
+    presets["cpu"] = True
   methods = [m for m in METHODS if presets.get(m)]
   if len(methods) > 1:
     raise ValueError(f"choose one method preset, got {', '.join(methods)}")
@@ -228,6 +243,10 @@ def apply_presets(
     if steer is not None:  # a whole round of 500 steered episodes: lighter steering
       steer.update(num_proposals=8, every=4, max_dims=2)
     c.slurm.update(cluster.CPU)
+  if presets.get("quick"):  # about ten minutes on 2 cores: shorter fits, fewer evaluation and exploration states
+    c.fit.num_steps = quick_steps
+    c.eval.num_start_states = QUICK_EVAL_STATES
+    c.explore.num_start_states = QUICK_EXPLORE_STATES
   for preset, (field, suffix) in VARIANTS.items():
     if preset not in presets:
       continue
