@@ -84,9 +84,12 @@ def compare(workdir: str, roots: tuple[str, ...] | None = None) -> dict | None:
   tests = {}
   if len(fits) > 2:
     lay = claims.layout(rates)
+    others = [n for n in lay.names if n != "control"]
     if len(lay.seeds) > 1:
-      others = [n for n in lay.names if n != "control"]
       tests = dict(zip(others, lay.tests([(n, "control") for n in others])))
+    elif lay.seeds:  # one seed: its difference, with no interval
+      y = dict(zip(lay.names, lay.y[0]))
+      tests = {n: sl.Test((y[n] - y["control"],), y[n] - y["control"], *(math.nan,) * 4, 0, math.nan) for n in others}
   evaluated = mine["outcomes"]["evaluate"]
   method = mine["method"]
   last = mine["last"]
@@ -127,7 +130,7 @@ def _test_cell(test: sl.Test | None) -> str:
   if test is None:
     return "-"
   if math.isnan(test.low):
-    return f"{100 * test.estimate:+.1f} points"
+    return f"{100 * test.estimate:+.1f} points (one seed: no interval)"
   return f"{100 * test.estimate:+.1f} points [{100 * test.low:+.1f}, {100 * test.high:+.1f}], p = {test.p_value:.2g}"
 
 
@@ -143,7 +146,7 @@ def _gain(c: dict, seed) -> float | None:
 
 def lines(c: dict) -> list[str]:
   """The comparison `c` (`compare`) as markdown: a table and what it says of the run's seed."""
-  seeds = ", ".join(str(s) for s in c["seeds"])
+  seeds = ("seeds " if len(c["seeds"]) > 1 else "seed ") + ", ".join(str(s) for s in c["seeds"])
   header = ["", f"your seed {c['seed']}", *(f"committed seed {s}" for s in c["seeds"]), "mean", "against the control"]
   rows = [
     [a["name"], pct(a["yours"]), *(pct(a["per_seed"][s]) for s in c["seeds"]), pct(a["mean"]), _test_cell(a["test"])]
@@ -151,7 +154,7 @@ def lines(c: dict) -> list[str]:
   ]
   out = [
     f"The committed campaign of this task and preset (`{c['folder']}`: the same settings but the training seed and "
-    f"the arm) over training seeds {seeds}: success on each seed's {c['states']} evaluation start states, every arm "
+    f"the arm) over training {seeds}: success on each seed's {c['states']} evaluation start states, every arm "
     "of a seed on the same states with the same sampling keys, as your run's. Round 0 is the shared base policy; the "
     "control re-fits without new data; dp, sime and soe explore, keep successes and re-fit. Against the control: "
     "each arm's difference from the control over the committed seeds, seed-level (each seed one paired difference, "

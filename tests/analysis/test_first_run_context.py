@@ -36,10 +36,11 @@ def _fake_run(path, config: dict, before, after):
   json.dump(dict(evaluate={"0": before, "1": after}, explore={}), open(os.path.join(path, "outcomes.json"), "w"))
 
 
-def _campaign(root, get_config, presets: str) -> str:
-  """A committed campaign's results folder: control, dp, sime and soe over seeds 0, 1 and 2."""
+def _campaign(root, get_config, presets: str, seeds=(0, 1, 2)) -> str:
+  """A committed campaign's results folder: control, dp, sime and soe over `seeds`."""
   for method, by_seed in LAST.items():
-    for seed, after in by_seed.items():
+    for seed in seeds:
+      after = by_seed[seed]
       config = get_config(f"{presets},{method}").to_dict()
       config.update(seed=seed)
       config["rounds"]["num_rounds"] = 1
@@ -76,6 +77,13 @@ def test_a_run_reads_against_each_committed_seed_with_the_seed_level_interval(tm
   text = "\n".join(context.lines(context.compare(str(seed0), (committed,))))
   assert "its per-state outcomes match the committed run's round 0 on 4 of 4 states, soe on 4 of 4 states" in text
   assert "(this machine reproduced it)" in text
+  # A campaign of one seed so far: each arm's difference from the control, with no interval.
+  one = _campaign(tmp_path / "one", _lift, "quick", seeds=(1,))
+  text = "\n".join(context.lines(context.compare(str(mine), (one,))))
+  assert (
+    "over training seed 1:" in text
+    and "| soe | 100.0% | 75.0% | 75.0% | +25.0 points (one seed: no interval) |" in text
+  )
   # Another preset (the `cpu` run's settings) has no committed campaign here.
   other = tmp_path / "runs" / "lift-soe-cpu"
   _fake_run(other, dict(_lift("cpu,soe").to_dict(), seed=7), [1, 1, 0, 0], [1, 1, 1, 1])
