@@ -3,6 +3,7 @@ figure and the lines `run` prints last; and the `quick` preset it is meant for."
 
 import json
 import os
+import subprocess
 
 import pytest
 
@@ -136,3 +137,21 @@ def _flat(d: dict, prefix: str = "") -> dict:
   for k, v in d.items():
     out.update(_flat(v, f"{prefix}{k}.") if isinstance(v, dict) else {f"{prefix}{k}": v})
   return out
+
+
+def test_the_committed_campaigns_script_runs_each_arm_of_the_quick_preset(tmp_path):
+  """`launch/quick.sh SEED` starts the campaign `results/quick/` holds (a stand-in `python` records it)."""
+  shim = tmp_path / "bin"
+  shim.mkdir()
+  (shim / "python").write_text(f'#!/usr/bin/env bash\nprintf "%s\\n" "$@" > "{tmp_path / "argv"}"\n')
+  (shim / "python").chmod(0o755)
+  env = dict(os.environ, PATH=f"{shim}:{os.environ['PATH']}", RESULTS=str(tmp_path / "results"))
+  p = subprocess.run(["bash", "launch/quick.sh", "2", str(tmp_path / "runs")], cwd=configfile.REPO_ROOT, env=env,
+                     capture_output=True, text=True)  # fmt: skip
+  assert p.returncode == 0, p.stderr
+  argv = (tmp_path / "argv").read_text().split()
+  assert argv == ["-m", "soe_jax", "campaign", "--config=configs/lift.py:quick", "--seeds=2",
+                  "--methods=control,dp,sime,soe", f"--workdir={tmp_path / 'runs'}",
+                  f"--results={tmp_path / 'results' / 'quick'}", "--progress=false"]  # fmt: skip
+  for method in ("control", "dp", "sime", "soe"):
+    assert configfile.load("configs/lift.py:quick", method).method == method
