@@ -169,7 +169,7 @@ def run(ckpt: str, rates: tuple[float, ...] = (10.0, 30.0), delay_ms: float = 50
     seed=seed,
     delay_ms_each_way=delay_ms,
     mode=mode,
-    realtime=dataclasses.asdict(realtime),
+    realtime=realtime.settings(),
     load_before=[round(x, 2) for x in load_before],
     load_after=[round(x, 2) for x in os.getloadavg()],
     cpus=os.cpu_count(),

@@ -77,8 +77,12 @@ class RealTime:
       raise ValueError(f"ensemble_k must be a number >= 0, got {ensemble_k!r}")
     self.threshold, self.aggregate, self.ensemble_k = threshold, aggregate, float(ensemble_k)
 
+  def settings(self) -> dict:
+    """The settings as keyword arguments: `RealTime(**rt.settings())` is `rt` again."""
+    return dict(threshold=self.threshold, aggregate=self.aggregate, ensemble_k=self.ensemble_k)
+
   def __repr__(self) -> str:
-    return f"RealTime(threshold={self.threshold!r}, aggregate={self.aggregate!r}, ensemble_k={self.ensemble_k!r})"
+    return "RealTime(" + ", ".join(f"{k}={v!r}" for k, v in self.settings().items()) + ")"
 
 
 class Schedule:
