@@ -203,14 +203,14 @@ def test_bad_executed_actions_are_one_line_errors(served):
 def test_the_realtime_bench_runs_both_loops_and_its_record_is_json(toy_run):
   """`bench realtime` end to end on a fitted checkpoint (the toy task's round 0), one fast rate and one
   start state: both loops run, and the record, the real-time settings included, is JSON."""
-  import glob
   import json
 
   from soe_jax.bench import realtime as realtime_bench
+  from soe_jax.experiment.rundir import RunDir
   from tests.experiment import toy
 
-  root, _, _ = toy_run
-  (ckpt,) = glob.glob(str(root / "round0" / "toy-*" / "ckpt"))
+  _, config, workdir = toy_run
+  ckpt = RunDir(workdir, config).ckpt_dir(0)
   with toy.registered():
     out = realtime_bench.run(ckpt, rates=(50.0,), delay_ms=1.0, states=1, realtime=client.RealTime(threshold=2))
   assert json.loads(json.dumps(out))["realtime"] == dict(threshold=2, aggregate="latest", ensemble_k=0.01)
